@@ -1,0 +1,1 @@
+"""hexcal: kinematic calibration of hexapods."""

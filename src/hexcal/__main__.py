@@ -1,0 +1,5 @@
+import sys
+
+from hexcal.cli import main
+
+sys.exit(main())

@@ -1,0 +1,333 @@
+"""The hexapod geometry: an immutable value object and its named parameter vector.
+
+Parameter order and names follow FORMATS.md: ``u1.x u1.y u1.z ... u6.z``,
+``s1.x ... s6.z``, ``l0_1 ... l0_6`` and, optionally, ``g1 ... g6``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hexcal.conventions import DEFAULT_EULER, N_LEGS, POSE_NAMES, check_euler
+
+PARAMETER_NAMES: tuple[str, ...] = (
+    tuple(f"u{i}.{ax}" for i in range(1, 7) for ax in "xyz")
+    + tuple(f"s{i}.{ax}" for i in range(1, 7) for ax in "xyz")
+    + tuple(f"l0_{i}" for i in range(1, 7))
+    + tuple(f"g{i}" for i in range(1, 7))
+)
+N_BASE_PARAMETERS = 42
+N_ALL_PARAMETERS = 48
+
+#: Parameter groups for selecting what an identification varies.
+PARAMETER_GROUPS: dict[str, tuple[str, ...]] = {
+    "joints": PARAMETER_NAMES[:36],
+    "base": PARAMETER_NAMES[:18],
+    "platform": PARAMETER_NAMES[18:36],
+    "l0": PARAMETER_NAMES[36:42],
+    "gains": PARAMETER_NAMES[42:48],
+}
+
+#: Leg index (0-based) that each parameter belongs to.
+PARAMETER_LEG = np.array([i for i in range(6) for _ in range(3)] * 2 + list(range(6)) * 2, dtype=np.intp)
+
+
+class GeometryError(ValueError):
+    """A geometry description is invalid (missing key, wrong shape, wrong unit...)."""
+
+
+def _frozen(arr: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
+    try:
+        out = np.array(arr, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise GeometryError(f"{what} must be numeric: {exc}") from None
+    if out.shape != shape:
+        raise GeometryError(f"{what} must have shape {shape}, got {out.shape}")
+    if not np.all(np.isfinite(out)):
+        raise GeometryError(f"{what} contains NaN or inf")
+    out.flags.writeable = False
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Geometry:
+    """Kinematic geometry of a 6-6 hexapod.
+
+    Parameters
+    ----------
+    base_joints : array_like, shape (6, 3)
+        Base joint centres ``u_i`` in the base frame, mm.
+    platform_joints : array_like, shape (6, 3)
+        Platform joint centres ``s_i`` in the platform frame, mm.
+    initial_leg_lengths : array_like, shape (6,)
+        ``l0_i``, mm: leg length at reading ``dl_i = 0``.
+    leg_gains : array_like, shape (6,), optional
+        ``g_i``: leg length is ``l0_i + g_i * dl_i``. Default all 1.
+    leg_length_limits : array_like, shape (2,), optional
+        ``[min, max]`` absolute leg length, mm.
+    home_pose : array_like, shape (6,), optional
+        Pose ``(x, y, z, a, b, c)``, mm and rad.
+    workspace : array_like, shape (6, 2), optional
+        Box ``[low, high]`` per pose coordinate, mm and rad.
+    euler : str
+        scipy Euler sequence of the pose angles.
+    name : str
+    calibration : dict, optional
+        Metadata of the identification that produced this geometry.
+    """
+
+    base_joints: NDArray[np.float64]
+    platform_joints: NDArray[np.float64]
+    initial_leg_lengths: NDArray[np.float64]
+    leg_gains: NDArray[np.float64] = field(default_factory=lambda: np.ones(N_LEGS))
+    leg_length_limits: NDArray[np.float64] | None = None
+    home_pose: NDArray[np.float64] | None = None
+    workspace: NDArray[np.float64] | None = None
+    euler: str = DEFAULT_EULER
+    name: str = ""
+    calibration: dict[str, Any] | None = None
+
+    def __post_init__(self) -> None:
+        put = object.__setattr__
+        put(self, "base_joints", _frozen(self.base_joints, (6, 3), "base_joints"))
+        put(self, "platform_joints", _frozen(self.platform_joints, (6, 3), "platform_joints"))
+        put(
+            self,
+            "initial_leg_lengths",
+            _frozen(self.initial_leg_lengths, (6,), "initial_leg_lengths"),
+        )
+        put(self, "leg_gains", _frozen(self.leg_gains, (6,), "leg_gains"))
+        if self.leg_length_limits is not None:
+            lim = _frozen(self.leg_length_limits, (2,), "leg_length_limits")
+            if not lim[0] < lim[1]:
+                raise GeometryError(
+                    f"leg_length_limits must be [min, max] with min < max, got {lim.tolist()}"
+                )
+            put(self, "leg_length_limits", lim)
+        if self.home_pose is not None:
+            put(self, "home_pose", _frozen(self.home_pose, (6,), "home_pose"))
+        if self.workspace is not None:
+            box = _frozen(self.workspace, (6, 2), "workspace")
+            if np.any(box[:, 0] > box[:, 1]):
+                raise GeometryError("workspace ranges must be [low, high] with low <= high")
+            put(self, "workspace", box)
+        try:
+            check_euler(self.euler)
+        except ValueError as exc:
+            raise GeometryError(str(exc)) from None
+
+    # -- parameter vector -------------------------------------------------
+    def to_vector(self, gains: bool = False) -> NDArray[np.float64]:
+        """Parameter vector in the order of :data:`PARAMETER_NAMES` (42, or 48 with gains)."""
+        parts = [
+            self.base_joints.ravel(),
+            self.platform_joints.ravel(),
+            self.initial_leg_lengths,
+        ]
+        if gains:
+            parts.append(self.leg_gains)
+        return np.concatenate(parts)
+
+    def with_vector(self, vector: ArrayLike) -> Geometry:
+        """Copy with kinematic parameters from a 42- or 48-vector (gains kept if 42)."""
+        vec = np.asarray(vector, dtype=float)
+        if vec.shape not in ((N_BASE_PARAMETERS,), (N_ALL_PARAMETERS,)):
+            raise ValueError(f"parameter vector must have shape (42,) or (48,), got {vec.shape}")
+        changes: dict[str, Any] = dict(
+            base_joints=vec[:18].reshape(6, 3),
+            platform_joints=vec[18:36].reshape(6, 3),
+            initial_leg_lengths=vec[36:42],
+        )
+        if vec.shape[0] == N_ALL_PARAMETERS:
+            changes["leg_gains"] = vec[42:48]
+        return dataclasses.replace(self, **changes)
+
+    def parameters(self, gains: bool = False) -> dict[str, float]:
+        """Named parameters, ``{"u1.x": ..., ...}``."""
+        vec = self.to_vector(gains)
+        return {n: float(v) for n, v in zip(PARAMETER_NAMES, vec, strict=False)}
+
+    def replace(self, **changes: Any) -> Geometry:
+        """Copy with some fields changed (``dataclasses.replace``)."""
+        return dataclasses.replace(self, **changes)
+
+    # -- dict / YAML form --------------------------------------------------
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Geometry:
+        """Build from the YAML mapping of FORMATS.md (validated)."""
+        if not isinstance(data, dict):
+            raise GeometryError("geometry must be a mapping of keys to values")
+        for key in ("units", "base_joints", "platform_joints", "initial_leg_lengths"):
+            if key not in data:
+                raise GeometryError(f"missing required key '{key}'")
+        if data["units"] != "mm":
+            raise GeometryError(f"units must be 'mm' (the only supported unit), got {data['units']!r}")
+        known = {
+            "name",
+            "units",
+            "euler",
+            "base_joints",
+            "platform_joints",
+            "initial_leg_lengths",
+            "leg_gains",
+            "leg_length_limits",
+            "home_pose",
+            "workspace",
+            "calibration",
+        }
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise GeometryError(f"unknown key(s): {', '.join(map(str, unknown))}")
+        kwargs: dict[str, Any] = dict(
+            base_joints=data["base_joints"],
+            platform_joints=data["platform_joints"],
+            initial_leg_lengths=data["initial_leg_lengths"],
+            euler=data.get("euler", DEFAULT_EULER),
+            name=str(data.get("name", "") or ""),
+        )
+        if data.get("leg_gains") is not None:
+            kwargs["leg_gains"] = data["leg_gains"]
+        if data.get("leg_length_limits") is not None:
+            kwargs["leg_length_limits"] = data["leg_length_limits"]
+        if data.get("home_pose") is not None:
+            kwargs["home_pose"] = _pose_from_mapping(data["home_pose"], "home_pose")
+        if data.get("workspace") is not None:
+            kwargs["workspace"] = _box_from_mapping(data["workspace"])
+        if data.get("calibration") is not None:
+            if not isinstance(data["calibration"], dict):
+                raise GeometryError("calibration must be a mapping")
+            kwargs["calibration"] = data["calibration"]
+        return cls(**kwargs)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The YAML mapping of FORMATS.md (angles written in degrees)."""
+        out: dict[str, Any] = {}
+        if self.name:
+            out["name"] = self.name
+        out["units"] = "mm"
+        out["euler"] = self.euler
+        out["base_joints"] = self.base_joints.tolist()
+        out["platform_joints"] = self.platform_joints.tolist()
+        out["initial_leg_lengths"] = self.initial_leg_lengths.tolist()
+        out["leg_gains"] = self.leg_gains.tolist()
+        if self.leg_length_limits is not None:
+            out["leg_length_limits"] = self.leg_length_limits.tolist()
+        if self.home_pose is not None:
+            out["home_pose"] = _pose_to_mapping(self.home_pose)
+        if self.workspace is not None:
+            out["workspace"] = _box_to_mapping(self.workspace)
+        if self.calibration is not None:
+            out["calibration"] = self.calibration
+        return out
+
+
+def _angle_key(mapping: dict[str, Any], axis: str, where: str) -> tuple[Any, bool]:
+    """Value of angle ``axis`` and whether it was given in degrees."""
+    has_rad, has_deg = axis in mapping, f"{axis}_deg" in mapping
+    if has_rad and has_deg:
+        raise GeometryError(f"{where}: give '{axis}' or '{axis}_deg', not both")
+    if has_deg:
+        return mapping[f"{axis}_deg"], True
+    if has_rad:
+        return mapping[axis], False
+    raise GeometryError(f"{where}: missing key '{axis}' (rad) or '{axis}_deg'")
+
+
+def _pose_from_mapping(mapping: Any, where: str) -> NDArray[np.float64]:
+    if not isinstance(mapping, dict):
+        raise GeometryError(f"{where} must be a mapping with keys x, y, z, a|a_deg, b|b_deg, c|c_deg")
+    allowed = {"x", "y", "z", "a", "b", "c", "a_deg", "b_deg", "c_deg"}
+    extra = sorted(set(mapping) - allowed)
+    if extra:
+        raise GeometryError(f"{where}: unknown key(s) {', '.join(map(str, extra))}")
+    pose = np.empty(6)
+    for k, axis in enumerate(POSE_NAMES):
+        if axis in "xyz":
+            if axis not in mapping:
+                raise GeometryError(f"{where}: missing key '{axis}'")
+            value, deg = mapping[axis], False
+        else:
+            value, deg = _angle_key(mapping, axis, where)
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise GeometryError(f"{where}: '{axis}' must be a number, got {value!r}") from None
+        pose[k] = np.deg2rad(v) if deg else v
+    return pose
+
+
+def _box_from_mapping(mapping: Any) -> NDArray[np.float64]:
+    where = "workspace"
+    if not isinstance(mapping, dict):
+        raise GeometryError("workspace must be a mapping of pose coordinates to [low, high]")
+    allowed = {"x", "y", "z", "a", "b", "c", "a_deg", "b_deg", "c_deg"}
+    extra = sorted(set(mapping) - allowed)
+    if extra:
+        raise GeometryError(f"{where}: unknown key(s) {', '.join(map(str, extra))}")
+    box = np.empty((6, 2))
+    for k, axis in enumerate(POSE_NAMES):
+        if axis in "xyz":
+            if axis not in mapping:
+                raise GeometryError(f"{where}: missing key '{axis}'")
+            value, deg = mapping[axis], False
+        else:
+            value, deg = _angle_key(mapping, axis, where)
+        try:
+            rng = np.array(value, dtype=float)
+        except (TypeError, ValueError):
+            raise GeometryError(f"{where}: '{axis}' must be [low, high], got {value!r}") from None
+        if rng.shape != (2,):
+            raise GeometryError(f"{where}: '{axis}' must be [low, high], got {value!r}")
+        box[k] = np.deg2rad(rng) if deg else rng
+    return box
+
+
+def _deg(value: float) -> float:
+    return float(np.round(np.rad2deg(value), 12))
+
+
+def _pose_to_mapping(pose: NDArray[np.float64]) -> dict[str, float]:
+    out = {axis: float(pose[k]) for k, axis in enumerate("xyz")}
+    out.update({f"{axis}_deg": _deg(pose[k + 3]) for k, axis in enumerate("abc")})
+    return out
+
+
+def _box_to_mapping(box: NDArray[np.float64]) -> dict[str, list[float]]:
+    out = {axis: box[k].tolist() for k, axis in enumerate("xyz")}
+    out.update({f"{axis}_deg": [_deg(v) for v in box[k + 3]] for k, axis in enumerate("abc")})
+    return out
+
+
+def select_parameters(
+    fit: str | tuple[str, ...] | list[str] = ("joints", "l0"),
+    fix: tuple[str, ...] | list[str] = (),
+) -> NDArray[np.bool_]:
+    """Boolean mask over the 48 parameter names: which ones an identification varies.
+
+    Parameters
+    ----------
+    fit : str or sequence of str
+        Group names from :data:`PARAMETER_GROUPS` (``joints``, ``base``, ``platform``,
+        ``l0``, ``gains``), as a sequence or a comma-separated string.
+    fix : sequence of str
+        Parameter names to hold at their current values.
+    """
+    groups = [g.strip() for g in fit.split(",")] if isinstance(fit, str) else list(fit)
+    mask = np.zeros(N_ALL_PARAMETERS, dtype=bool)
+    for group in groups:
+        if group not in PARAMETER_GROUPS:
+            raise ValueError(f"unknown parameter group {group!r}; choose from {', '.join(PARAMETER_GROUPS)}")
+        for name in PARAMETER_GROUPS[group]:
+            mask[PARAMETER_NAMES.index(name)] = True
+    for name in fix:
+        if name not in PARAMETER_NAMES:
+            raise ValueError(f"unknown parameter {name!r} (names are like u1.x, s3.z, l0_2, g4)")
+        mask[PARAMETER_NAMES.index(name)] = False
+    if not mask.any():
+        raise ValueError("no parameter left to identify")
+    return mask

@@ -1,0 +1,416 @@
+"""Identification of the kinematic parameters from measured poses and leg readings.
+
+Two residuals are available, both per pose ``j`` and leg ``i`` with the leg vector
+``v_ij = o_j + R_j s_i - u_i``:
+
+- ``"paper"``: the seed paper's cost (Agheli & Nategh 2009, eq. 3), after Zhuang et
+  al. (1998) and Chiu & Perng (2004): ``r_ij = |v_ij|² - (l0_i + g_i dl_ij)²`` (mm²);
+- ``"length"``: the leg length residual ``r_ij = |v_ij| - (l0_i + g_i dl_ij)`` (mm).
+
+Both are minimised by Levenberg–Marquardt (``scipy.optimize.least_squares``,
+``method="lm"``) with the analytic Jacobian of :func:`identification_jacobian`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import least_squares
+
+from hexcal.conventions import as_poses, rotation_matrices
+from hexcal.geometry import (
+    N_ALL_PARAMETERS,
+    PARAMETER_NAMES,
+    Geometry,
+    select_parameters,
+)
+from hexcal.measurement import Measurements
+
+METHODS = ("paper", "length")
+
+#: Characteristic scale of each parameter (mm for joints and l0; gains are
+#: dimensionless, and a gain change of 1e-3 moves a leg by about a millimetre).
+PARAMETER_SCALE = np.concatenate([np.ones(42), np.full(6, 1e-3)])
+
+#: Singular values of the column-normalised Jacobian below this fraction of the
+#: largest count as zero when judging identifiability.
+RANK_RTOL = 1e-8
+
+#: Minimum number of poses: each leg has 7 parameters (8 with its gain) and gets one
+#: equation per pose.
+MIN_POSES = 7
+
+_LEG = np.arange(6)
+_U_COLS = 3 * _LEG[:, None] + np.arange(3)
+_S_COLS = 18 + _U_COLS
+_L0_COLS = 36 + _LEG
+_G_COLS = 42 + _LEG
+
+
+class IdentificationError(ValueError):
+    """The data cannot determine the parameters, or the solver failed."""
+
+
+def _split(params: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    return (
+        params[:18].reshape(6, 3),
+        params[18:36].reshape(6, 3),
+        params[36:42],
+        params[42:48],
+    )
+
+
+def _leg_terms(
+    params: NDArray[np.float64],
+    rotations: NDArray[np.float64],
+    positions: NDArray[np.float64],
+    readings: NDArray[np.float64],
+) -> tuple[NDArray, NDArray, NDArray]:
+    """Leg vectors ``v`` (m, 6, 3), rotated joints ``R s`` (m, 6, 3), and ``l0 + g dl`` (m, 6)."""
+    u, s, l0, g = _split(params)
+    rotated = np.einsum("mjk,ik->mij", rotations, s)
+    legs = rotated + positions[:, None, :] - u
+    return legs, rotated, l0 + g * readings
+
+
+def _residuals(
+    params: NDArray[np.float64],
+    rotations: NDArray[np.float64],
+    positions: NDArray[np.float64],
+    readings: NDArray[np.float64],
+    method: str,
+) -> NDArray[np.float64]:
+    legs, _, model = _leg_terms(params, rotations, positions, readings)
+    sq = np.einsum("mik,mik->mi", legs, legs)
+    if method == "paper":
+        return sq - model**2
+    return np.sqrt(sq) - model
+
+
+def _jacobian(
+    params: NDArray[np.float64],
+    rotations: NDArray[np.float64],
+    positions: NDArray[np.float64],
+    readings: NDArray[np.float64],
+    method: str,
+) -> NDArray[np.float64]:
+    """Full Jacobian ``d r / d params``, shape ``(m * 6, 48)``."""
+    legs, _, model = _leg_terms(params, rotations, positions, readings)
+    m = legs.shape[0]
+    if method == "paper":
+        d_leg = 2.0 * legs  # d|v|²/dv
+        d_model = -2.0 * model  # d(-(l0 + g dl)²)/d(l0 + g dl)
+    else:
+        d_leg = legs / np.sqrt(np.einsum("mik,mik->mi", legs, legs))[..., None]
+        d_model = -np.ones_like(model)
+    jac = np.zeros((m, 6, N_ALL_PARAMETERS))
+    jac[:, _LEG[:, None], _U_COLS] = -d_leg
+    # d v / d s_i = R_j, so d r / d s_i = (d r / d v) R_j
+    jac[:, _LEG[:, None], _S_COLS] = np.einsum("mik,mkj->mij", d_leg, rotations)
+    jac[:, _LEG, _L0_COLS] = d_model
+    jac[:, _LEG, _G_COLS] = d_model * readings
+    return jac.reshape(m * 6, N_ALL_PARAMETERS)
+
+
+def _prepare(geometry: Geometry, poses: ArrayLike) -> tuple[NDArray, NDArray]:
+    poses = as_poses(poses, "measured poses").reshape(-1, 6)
+    return rotation_matrices(poses[:, 3:], geometry.euler), np.ascontiguousarray(poses[:, :3])
+
+
+def identification_residuals(
+    geometry: Geometry, measurements: Measurements, method: str = "length"
+) -> NDArray[np.float64]:
+    """Residuals of every pose and leg for ``geometry``, shape ``(m, 6)``.
+
+    Units: mm for ``"length"``, mm² for ``"paper"``.
+    """
+    _check_method(method)
+    rot, pos = _prepare(geometry, measurements.poses)
+    return _residuals(geometry.to_vector(gains=True), rot, pos, measurements.readings, method)
+
+
+def identification_jacobian(
+    geometry: Geometry,
+    measurements: Measurements,
+    method: str = "length",
+    mask: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """Analytic Jacobian of the identification residuals with respect to the parameters.
+
+    Parameters
+    ----------
+    geometry : Geometry
+        Parameters at which to evaluate.
+    measurements : Measurements
+    method : {"length", "paper"}
+    mask : array_like of bool, shape (48,), optional
+        Parameters to keep (columns); default the 42 of joints and l0.
+
+    Returns
+    -------
+    ndarray, shape (6 m, n_selected)
+        Row ``6 j + i`` is pose ``j``, leg ``i``; columns in :data:`PARAMETER_NAMES`
+        order.
+    """
+    _check_method(method)
+    mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
+    rot, pos = _prepare(geometry, measurements.poses)
+    jac = _jacobian(geometry.to_vector(gains=True), rot, pos, measurements.readings, method)
+    return jac[:, mask]
+
+
+def _check_method(method: str) -> None:
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; choose from {', '.join(METHODS)}")
+
+
+@dataclass(frozen=True, eq=False)
+class IdentificationResult:
+    """Outcome of :func:`identify` (after lmfit's ``MinimizerResult``).
+
+    Attributes
+    ----------
+    geometry : Geometry
+        The identified geometry (the start geometry with the varied parameters replaced).
+    start : Geometry
+        The geometry the identification started from (usually the nominal one).
+    method : str
+    names : tuple of str
+        Names of the varied parameters.
+    values, start_values, stderr : ndarray, shape (n,)
+        Identified values, start values and standard errors of the varied parameters.
+    covariance, correlation : ndarray, shape (n, n)
+    singular_values : ndarray
+        Singular values of the column-normalised Jacobian at the solution.
+    rank : int
+    residuals : ndarray, shape (m, 6)
+        Residuals at the solution (units of the method).
+    leg_rms_before, leg_rms_after : float
+        RMS of the leg length residual ``|v| - (l0 + g dl)`` at the start and at the
+        solution, mm (comparable across methods).
+    rms_before, rms_after : float
+        RMS of the method's own residual.
+    cost : float
+        ``0.5 * sum(residuals**2)`` at the solution.
+    nfev, njev : int
+        Function and Jacobian evaluations (``njev`` counts the LM iterations).
+    status : int
+    message : str
+    n_poses : int
+    ids : tuple of str
+        Ids of the poses used.
+    """
+
+    geometry: Geometry
+    start: Geometry
+    method: str
+    names: tuple[str, ...]
+    values: NDArray[np.float64]
+    start_values: NDArray[np.float64]
+    stderr: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    correlation: NDArray[np.float64]
+    singular_values: NDArray[np.float64]
+    rank: int
+    residuals: NDArray[np.float64]
+    leg_rms_before: float
+    leg_rms_after: float
+    rms_before: float
+    rms_after: float
+    cost: float
+    nfev: int
+    njev: int
+    status: int
+    message: str
+    n_poses: int
+    ids: tuple[str, ...] = field(default=())
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """Identified values by name."""
+        return dict(zip(self.names, self.values.tolist(), strict=True))
+
+    @property
+    def standard_errors(self) -> dict[str, float]:
+        """Standard errors by name."""
+        return dict(zip(self.names, self.stderr.tolist(), strict=True))
+
+    def calibration_metadata(self) -> dict[str, Any]:
+        """The ``calibration:`` mapping written into a calibrated geometry file."""
+        return {
+            "method": self.method,
+            "poses": self.n_poses,
+            "leg_rms_before_mm": self.leg_rms_before,
+            "leg_rms_after_mm": self.leg_rms_after,
+            "iterations": self.njev,
+            "status": self.status,
+            "rank": self.rank,
+            "stderr": self.standard_errors,
+        }
+
+
+def _column_svd(jac: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
+    """SVD of the column-normalised Jacobian: ``(norms, singular values, Vt)``."""
+    norms = np.linalg.norm(jac, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
+    return norms, sv, vt
+
+
+def _rank(sv: NDArray[np.float64]) -> int:
+    return int(np.sum(sv > RANK_RTOL * sv[0])) if sv.size else 0
+
+
+def identify(
+    start: Geometry,
+    measurements: Measurements,
+    method: str = "paper",
+    mask: ArrayLike | None = None,
+    xtol: float = 1e-12,
+    max_nfev: int | None = None,
+) -> IdentificationResult:
+    """Identify kinematic parameters by Levenberg–Marquardt.
+
+    Parameters
+    ----------
+    start : Geometry
+        Start values (the nominal geometry); parameters not varied keep its values.
+    measurements : Measurements
+        Measured poses (in ``start.euler``) and leg readings.
+    method : {"paper", "length"}
+        The residual (see the module docstring).
+    mask : array_like of bool, shape (48,), optional
+        Parameters to vary; default joints and l0 (:func:`hexcal.geometry.select_parameters`).
+    xtol : float
+        Relative step tolerance of the solver.
+    max_nfev : int, optional
+        Limit on function evaluations (default scipy's).
+
+    Returns
+    -------
+    IdentificationResult
+
+    Raises
+    ------
+    IdentificationError
+        Fewer poses than needed, a rank-deficient Jacobian, or no convergence.
+
+    Notes
+    -----
+    The parameters are varied in units of :data:`PARAMETER_SCALE`. The covariance is
+    ``s² V S⁻² Vᵀ`` from the SVD of the column-normalised Jacobian at the solution
+    (as ``scipy.optimize.curve_fit`` does), with ``s²`` the residual variance
+    ``sum(r²) / (6 m - n)``; standard errors are the square roots of its diagonal.
+    """
+    _check_method(method)
+    mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
+    if mask.shape != (N_ALL_PARAMETERS,):
+        raise ValueError(f"mask must have shape (48,), got {mask.shape}")
+    n_vary = int(mask.sum())
+    m = len(measurements)
+    min_poses = MIN_POSES + (1 if mask[42:].any() else 0)
+    if m < min_poses:
+        raise IdentificationError(
+            f"{m} poses cannot determine the parameters: at least {min_poses} are needed "
+            f"(each leg has {min_poses} parameters and gets one equation per pose)"
+        )
+    if 6 * m <= n_vary:
+        raise IdentificationError(f"{6 * m} equations for {n_vary} parameters: measure more poses")
+    rot, pos = _prepare(start, measurements.poses)
+    readings = measurements.readings
+    full0 = start.to_vector(gains=True)
+    scale = PARAMETER_SCALE[mask]
+    base = full0[mask]
+
+    def unpack(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        full = full0.copy()
+        full[mask] = base + x * scale
+        return full
+
+    def fun(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return _residuals(unpack(x), rot, pos, readings, method).ravel()
+
+    def jac(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return _jacobian(unpack(x), rot, pos, readings, method)[:, mask] * scale
+
+    j0 = jac(np.zeros(n_vary))
+    _, sv0, vt0 = _column_svd(j0)
+    if _rank(sv0) < n_vary:
+        raise IdentificationError(
+            "the poses cannot identify all parameters (rank-deficient Jacobian: rank "
+            f"{_rank(sv0)} of {n_vary}; weakest combination: {_combination(vt0[-1], mask)})"
+        )
+    r0_len = _residuals(full0, rot, pos, readings, "length")
+    r0 = fun(np.zeros(n_vary))
+    # x_scale=1: the variables are already in PARAMETER_SCALE units (scipy >= 1.16
+    # defaults LM to 'jac' scaling, which starts with steps far too small here)
+    sol = least_squares(
+        fun,
+        np.zeros(n_vary),
+        jac=jac,
+        method="lm",
+        x_scale=1.0,
+        xtol=xtol,
+        ftol=1e-12,
+        gtol=1e-12,
+        max_nfev=max_nfev,
+    )
+    if sol.status <= 0 or not np.all(np.isfinite(sol.x)):
+        raise IdentificationError(f"the solver did not converge: {sol.message}")
+    full = unpack(sol.x)
+    norms, sv, vt = _column_svd(sol.jac)
+    rank = _rank(sv)
+    if rank < n_vary:
+        raise IdentificationError(
+            f"rank-deficient Jacobian at the solution (rank {rank} of {n_vary}; weakest "
+            f"combination: {_combination(vt[-1], mask)})"
+        )
+    dof = sol.fun.size - n_vary
+    s2 = float(sol.fun @ sol.fun) / dof
+    vs = vt.T / sv
+    cov_scaled = (vs @ vs.T) / np.outer(norms, norms) * s2
+    cov = cov_scaled * np.outer(scale, scale)
+    stderr = np.sqrt(np.diag(cov))
+    corr = cov / np.outer(stderr, stderr)
+    geometry = start.with_vector(full)
+    r_len = _residuals(full, rot, pos, readings, "length")
+    names = tuple(n for n, keep in zip(PARAMETER_NAMES, mask, strict=True) if keep)
+    return IdentificationResult(
+        geometry=geometry,
+        start=start,
+        method=method,
+        names=names,
+        values=full[mask],
+        start_values=full0[mask],
+        stderr=stderr,
+        covariance=cov,
+        correlation=corr,
+        singular_values=sv,
+        rank=rank,
+        residuals=sol.fun.reshape(m, 6),
+        leg_rms_before=_rms(r0_len),
+        leg_rms_after=_rms(r_len),
+        rms_before=_rms(r0),
+        rms_after=_rms(sol.fun),
+        cost=float(sol.cost),
+        nfev=int(sol.nfev),
+        njev=int(sol.njev or 0),
+        status=int(sol.status),
+        message=str(sol.message),
+        n_poses=m,
+        ids=measurements.ids,
+    )
+
+
+def _rms(x: NDArray[np.float64]) -> float:
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def _combination(vector: NDArray[np.float64], mask: NDArray[np.bool_], top: int = 4) -> str:
+    """Readable form of a parameter combination (the largest components)."""
+    names = [n for n, keep in zip(PARAMETER_NAMES, mask, strict=True) if keep]
+    order = np.argsort(-np.abs(vector))[:top]
+    return " ".join(f"{vector[k]:+.2f}·{names[k]}" for k in order)

@@ -1,0 +1,117 @@
+"""Measurement data and measurement noise.
+
+A measurement is a pose of the platform measured by an external instrument (laser
+tracker, CMM) together with the six leg readings the controller reported there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hexcal.conventions import as_poses
+
+
+@dataclass(frozen=True, eq=False)
+class Measurements:
+    """Measured poses and the leg readings at each.
+
+    Parameters
+    ----------
+    poses : array_like, shape (m, 6)
+        Measured poses, mm and rad, in the geometry's Euler convention.
+    readings : array_like, shape (m, 6)
+        Leg readings ``dl_i``, mm.
+    ids : sequence of str, optional
+        Pose labels; default ``"1" ... "m"`` (the row numbers).
+    """
+
+    poses: NDArray[np.float64]
+    readings: NDArray[np.float64]
+    ids: tuple[str, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        poses = np.array(as_poses(self.poses, "measured poses"), dtype=float)
+        readings = np.array(self.readings, dtype=float)
+        if poses.ndim != 2:
+            raise ValueError(f"measured poses must have shape (m, 6), got {poses.shape}")
+        if readings.shape != poses.shape:
+            raise ValueError(
+                f"leg readings must have shape {poses.shape} like the poses, got {readings.shape}"
+            )
+        for what, arr in (("measured poses", poses), ("leg readings", readings)):
+            bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
+            if bad.size:
+                raise ValueError(f"{what} contain NaN or inf (row {bad[0] + 1})")
+        ids = tuple(str(i) for i in self.ids) or tuple(str(k + 1) for k in range(len(poses)))
+        if len(ids) != len(poses):
+            raise ValueError(f"{len(ids)} ids for {len(poses)} poses")
+        poses.flags.writeable = False
+        readings.flags.writeable = False
+        object.__setattr__(self, "poses", poses)
+        object.__setattr__(self, "readings", readings)
+        object.__setattr__(self, "ids", ids)
+
+    def __len__(self) -> int:
+        return int(self.poses.shape[0])
+
+    def subset(self, index: ArrayLike) -> Measurements:
+        """The measurements at ``index`` (an integer or boolean index)."""
+        idx = np.arange(len(self))[np.asarray(index)]
+        return Measurements(self.poses[idx], self.readings[idx], tuple(self.ids[i] for i in idx))
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Measurement noise: leg sensor, position and orientation.
+
+    Parameters
+    ----------
+    leg : float
+        Leg sensor error, mm.
+    position : float
+        Position measurement error per coordinate, mm.
+    orientation : float
+        Orientation measurement error per Euler angle, rad.
+    distribution : {"uniform", "normal"}
+        With ``uniform`` the values are half-widths ``a`` of ``U(-a, a)`` (standard
+        deviation ``a / sqrt(3)``); with ``normal`` they are standard deviations.
+
+    The defaults are the seed paper's section VI: ±0.01 mm, ±0.025 mm, ±0.001 rad.
+    """
+
+    leg: float = 0.01
+    position: float = 0.025
+    orientation: float = 0.001
+    distribution: str = "uniform"
+
+    def __post_init__(self) -> None:
+        if self.distribution not in ("uniform", "normal"):
+            raise ValueError(f"noise distribution must be 'uniform' or 'normal', got {self.distribution!r}")
+        for name in ("leg", "position", "orientation"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"noise {name} must be a finite value >= 0, got {value!r}")
+
+    @property
+    def sigmas(self) -> tuple[float, float, float]:
+        """Standard deviations ``(leg, position, orientation)``."""
+        k = 1 / np.sqrt(3) if self.distribution == "uniform" else 1.0
+        return (self.leg * k, self.position * k, self.orientation * k)
+
+    def _draw(self, rng: np.random.Generator, scale: float, shape: tuple[int, ...]) -> NDArray:
+        if self.distribution == "uniform":
+            return rng.uniform(-scale, scale, size=shape)
+        return rng.normal(0.0, scale, size=shape)
+
+    def leg_errors(self, rng: np.random.Generator, shape: tuple[int, ...]) -> NDArray:
+        """Leg sensor errors of shape ``shape + (6,)``, mm."""
+        return self._draw(rng, self.leg, (*shape, 6))
+
+    def pose_errors(self, rng: np.random.Generator, shape: tuple[int, ...]) -> NDArray:
+        """Pose measurement errors of shape ``shape + (6,)``, mm and rad."""
+        pos = self._draw(rng, self.position, (*shape, 3))
+        ang = self._draw(rng, self.orientation, (*shape, 3))
+        return np.concatenate([pos, ang], axis=-1)
