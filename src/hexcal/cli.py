@@ -39,10 +39,15 @@ from hexcal.kinematics import (
 from hexcal.measurement import NoiseModel
 from hexcal.presets import PRESETS
 from hexcal.simulation import SimulationError
+from hexcal.validation import ValidationError
 
 
 class CommandError(Exception):
     """A failure to report as one line."""
+
+
+def _id_list(ids: Sequence[str], most: int = 20) -> str:
+    return ", ".join(ids[:most]) + (f" ... ({len(ids)} in all)" if len(ids) > most else "")
 
 
 def _geometry(spec: str, euler: str | None = None) -> Geometry:
@@ -91,8 +96,7 @@ def cmd_ik(args: argparse.Namespace) -> None:
     if not feasible.all():
         bad = [ids[k] for k in np.flatnonzero(~feasible)]
         print(
-            f"hexcal: warning: {len(bad)} pose(s) outside the leg length limits: "
-            f"{', '.join(bad[:20])}{' ...' if len(bad) > 20 else ''}",
+            f"hexcal: warning: {len(bad)} pose(s) outside the leg length limits: {_id_list(bad)}",
             file=sys.stderr,
         )
     write_legs(args.out, lengths, leg_readings(geometry, lengths), ids)
@@ -103,6 +107,15 @@ def cmd_fk(args: argparse.Namespace) -> None:
     geometry = _geometry(args.geometry, args.euler)
     legs = read_legs(args.legs)
     lengths = legs.lengths if legs.lengths is not None else leg_lengths(geometry, legs.readings)
+    if geometry.leg_length_limits is not None:
+        lo, hi = geometry.leg_length_limits
+        outside = np.flatnonzero(np.any((lengths < lo - 1e-6) | (lengths > hi + 1e-6), axis=1))
+        if outside.size:
+            bad = [legs.ids[k] for k in outside]
+            raise CommandError(
+                f"{args.legs}: {len(bad)} row(s) outside the leg length limits "
+                f"[{lo:g}, {hi:g}] mm (ids {_id_list(bad)})"
+            )
     if args.guess:
         guess, _ = read_poses(args.guess, geometry.euler)
         if len(guess) != len(lengths):
@@ -118,7 +131,7 @@ def cmd_fk(args: argparse.Namespace) -> None:
         bad = [legs.ids[k] for k in np.flatnonzero(~result.converged)]
         raise CommandError(
             f"forward kinematics did not converge for {len(bad)} row(s) of {args.legs} "
-            f"(ids {', '.join(bad[:20])}{' ...' if len(bad) > 20 else ''}): leg lengths "
+            f"(ids {_id_list(bad)}): leg lengths "
             "out of reach, or start too far (try --guess)"
         )
     write_poses(args.out, result.poses, legs.ids)
@@ -126,6 +139,143 @@ def cmd_fk(args: argparse.Namespace) -> None:
         f"wrote {len(legs.ids)} pose(s) to {args.out} (max leg residual "
         f"{result.residual.max():.1e} mm, at most {result.iterations.max()} iterations)"
     )
+
+
+def _check_outputs(*paths: str | None) -> None:
+    """Fail before any work when an output's folder does not exist."""
+    for path in paths:
+        if path is None:
+            continue
+        folder = Path(path).parent
+        if not folder.is_dir():
+            raise CommandError(f"{path}: the folder {folder} does not exist")
+        if Path(path).is_dir():
+            raise CommandError(f"{path}: is a folder, not a file")
+
+
+def cmd_identify(args: argparse.Namespace) -> None:
+    from hexcal.geometry import select_parameters
+    from hexcal.identification import identify
+    from hexcal.io import read_measurements
+    from hexcal.outliers import identify_robust, pose_diagnostics
+    from hexcal.report import format_identification_report, identification_summary
+
+    _check_outputs(args.out, args.report, args.json)
+    nominal = _geometry(args.geometry, args.euler)
+    data = read_measurements(args.data, nominal.euler)
+    try:
+        mask = select_parameters(args.fit, args.fix or ())
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+    outliers: tuple[str, ...] = ()
+    if args.robust:
+        robust = identify_robust(nominal, data, method=args.method, mask=mask)
+        result, outliers = robust.result, robust.outliers
+        used = data.subset(robust.kept)
+        diag = robust.diagnostics
+    else:
+        result = identify(nominal, data, method=args.method, mask=mask)
+        used = data
+        diag = pose_diagnostics(result, used, mask)
+    flagged = tuple(used.ids[k] for k in diag.flagged)
+    text = format_identification_report(result, outliers, flagged)
+    print(text)
+    calibration = result.calibration_metadata()
+    calibration["data"] = str(args.data)
+    calibration["outliers"] = list(outliers)
+    name = f"{nominal.name}-calibrated" if nominal.name else "calibrated"
+    save_geometry(result.geometry.replace(name=name, calibration=calibration), args.out)
+    if args.report:
+        with atomic_write(args.report) as fh:
+            fh.write(text + "\n")
+    if args.json:
+        with atomic_write(args.json) as fh:
+            json.dump(identification_summary(result, outliers, flagged), fh, indent=2)
+            fh.write("\n")
+    print(f"wrote the calibrated geometry to {args.out}")
+
+
+def cmd_validate(args: argparse.Namespace) -> None:
+    from hexcal.io import read_measurements, write_table
+    from hexcal.report import format_validation
+    from hexcal.validation import validate
+
+    _check_outputs(args.out)
+    geometry = _geometry(args.geometry, args.euler)
+    data = read_measurements(args.data, geometry.euler)
+    calibrated = validate(geometry, data)
+    nominal = validate(_geometry(args.nominal, geometry.euler), data) if args.nominal else None
+    print(format_validation(calibrated.summary(), nominal.summary() if nominal else None))
+    if args.out:
+        columns = ["leg_rms", "position_error", "orientation_error"]
+        results = [calibrated] + ([nominal] if nominal else [])
+        table = []
+        for res in results:
+            table += [
+                np.sqrt(np.mean(res.leg_residuals**2, axis=1)),
+                res.position_error,
+                res.orientation_error,
+            ]
+        if nominal:
+            columns += ["nominal_leg_rms", "nominal_position_error", "nominal_orientation_error"]
+        write_table(
+            args.out,
+            columns,
+            np.column_stack(table),
+            data.ids,
+            comment="per-pose validation: mm and rad; leg_rms is the RMS of the six leg residuals",
+        )
+        print(f"wrote the per-pose table to {args.out}")
+
+
+def cmd_compensate(args: argparse.Namespace) -> None:
+    from hexcal.validation import compensate
+
+    _check_outputs(args.out, args.corrected_poses)
+    if args.corrected_poses and not args.nominal:
+        raise CommandError("--corrected-poses needs --nominal (the controller's geometry)")
+    geometry = _geometry(args.geometry, args.euler)
+    targets, ids = read_poses(args.poses, geometry.euler)
+    nominal = _geometry(args.nominal, geometry.euler) if args.nominal else None
+    comp = compensate(geometry, targets, ids, nominal)
+    bad = comp.infeasible_ids
+    if bad and not args.skip_infeasible:
+        raise CommandError(
+            f"{len(bad)} target(s) outside the leg length limits: {_id_list(list(bad))} "
+            "(nothing written; --skip-infeasible writes the others)"
+        )
+    keep = comp.feasible
+    kept_ids = [i for i, k in zip(ids, keep, strict=True) if k]
+    write_legs(args.out, comp.lengths[keep], comp.readings[keep], kept_ids)
+    if args.corrected_poses and comp.corrected_poses is not None:
+        write_poses(args.corrected_poses, comp.corrected_poses[keep], kept_ids)
+        print(f"wrote corrected target poses for the nominal controller to {args.corrected_poses}")
+    if bad:
+        print(
+            f"hexcal: warning: skipped {len(bad)} infeasible target(s): {_id_list(list(bad))}",
+            file=sys.stderr,
+        )
+    print(f"wrote leg commands for {len(kept_ids)} target(s) to {args.out}")
+
+
+def cmd_synthesize(args: argparse.Namespace) -> None:
+    from hexcal.io import write_measurements
+    from hexcal.simulation import simulate_measurements
+
+    _check_outputs(args.out)
+    nominal = _geometry(args.nominal, args.euler)
+    true = _geometry(args.true, nominal.euler)
+    poses, ids = read_poses(args.poses, nominal.euler)
+    noise = parse_noise(args.noise, args.noise_dist)
+    data = simulate_measurements(nominal, true, poses, noise, args.seed, ids)
+    write_measurements(
+        args.out,
+        data,
+        nominal.euler,
+        args.orientation,
+        comment=f"simulated: nominal {args.nominal}, true {args.true}, seed {args.seed}, noise {noise}",
+    )
+    print(f"wrote {len(data)} simulated measurement(s) to {args.out}")
 
 
 class _Progress:
@@ -233,6 +383,54 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tol", type=float, default=1e-9, help="leg length tolerance, mm")
     p.set_defaults(func=cmd_fk)
 
+    p = sub.add_parser("identify", help="identify the kinematic parameters from a measurement file")
+    p.add_argument("--geometry", required=True, help=f"nominal {geometry_help}")
+    p.add_argument("--data", required=True, help="measurement CSV file (dl1..dl6 and the measured pose)")
+    p.add_argument("--out", required=True, help="calibrated geometry YAML file to write")
+    p.add_argument(
+        "--method",
+        choices=("length", "paper"),
+        default="length",
+        help="residual: leg length (default) or the seed paper's squared lengths (eq. 3)",
+    )
+    p.add_argument("--fit", default="joints,l0", help="parameter groups: joints, base, platform, l0, gains")
+    p.add_argument("--fix", nargs="+", metavar="NAME", help="parameters to hold, e.g. u1.z l0_1")
+    p.add_argument("--robust", action="store_true", help="find and leave out outlying poses")
+    p.add_argument("--euler", help="Euler sequence of the angles (default: the geometry's)")
+    p.add_argument("--report", help="save the report as text")
+    p.add_argument("--json", help="save the result as JSON")
+    p.set_defaults(func=cmd_identify)
+
+    p = sub.add_parser("validate", help="pose errors of a geometry on held-out measurements")
+    p.add_argument("--geometry", required=True, help=f"calibrated {geometry_help}")
+    p.add_argument("--data", required=True, help="held-out measurement CSV file")
+    p.add_argument("--nominal", help="also validate this geometry, side by side")
+    p.add_argument("--out", help="per-pose table CSV file")
+    p.add_argument("--euler", help="Euler sequence of the angles (default: the geometry's)")
+    p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser("compensate", help="leg commands that bring the real machine to targets")
+    p.add_argument("--geometry", required=True, help=f"calibrated {geometry_help}")
+    p.add_argument("--poses", required=True, help="target pose CSV file")
+    p.add_argument("--out", required=True, help="leg CSV file to write (l1..l6, dl1..dl6)")
+    p.add_argument("--nominal", help="the controller's (nominal) geometry")
+    p.add_argument("--corrected-poses", help="pose CSV file of corrected targets for the nominal controller")
+    p.add_argument("--skip-infeasible", action="store_true", help="write the feasible targets only")
+    p.add_argument("--euler", help="Euler sequence of the angles (default: the geometry's)")
+    p.set_defaults(func=cmd_compensate)
+
+    p = sub.add_parser("synthesize", help="simulate a measurement file of a known machine (for rehearsal)")
+    p.add_argument("--nominal", required=True, help=f"the controller's {geometry_help}")
+    p.add_argument("--true", required=True, help=f"the simulated real machine: {geometry_help}")
+    p.add_argument("--poses", required=True, help="commanded pose CSV file")
+    p.add_argument("--out", required=True, help="measurement CSV file to write")
+    p.add_argument("--noise", help="noise half-widths, e.g. leg=0.01,pos=0.025,ang=0.001 (the paper's)")
+    p.add_argument("--noise-dist", choices=("uniform", "normal"), default="uniform")
+    p.add_argument("--orientation", choices=("rad", "deg", "quat"), default="rad")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--euler", help="Euler sequence of the angles (default: the nominal geometry's)")
+    p.set_defaults(func=cmd_synthesize)
+
     p = sub.add_parser("paper", help="reproduce the seed paper's Table I by Monte Carlo")
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {geometry_help}")
     p.add_argument(
@@ -268,6 +466,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         InputError,
         GeometryError,
         IdentificationError,
+        ValidationError,
         SimulationError,
         ValueError,
         OSError,

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 DEFAULT_EULER = "XYZ"
 POSE_NAMES = ("x", "y", "z", "a", "b", "c")
@@ -152,6 +151,8 @@ def orientation_error(
     angles_a: ArrayLike, angles_b: ArrayLike, euler: str = DEFAULT_EULER
 ) -> NDArray[np.float64]:
     """Angle (rad) of the rotation between two orientations, shape ``(...)``."""
+    from scipy.spatial.transform import Rotation  # deferred: scipy.spatial is slow to import
+
     ra = rotation_matrices(angles_a, euler)
     rb = rotation_matrices(angles_b, euler)
     rel = np.einsum("...ji,...jk->...ik", ra, rb)

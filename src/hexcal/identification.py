@@ -183,8 +183,10 @@ class IdentificationResult:
     values, start_values, stderr : ndarray, shape (n,)
         Identified values, start values and standard errors of the varied parameters.
     covariance, correlation : ndarray, shape (n, n)
-    singular_values : ndarray
-        Singular values of the column-normalised Jacobian at the solution.
+    singular_values : ndarray, shape (n,)
+        Singular values of the column-normalised Jacobian at the solution, descending.
+    singular_vectors : ndarray, shape (n, n)
+        Row ``k`` is the (normalised-parameter) combination of ``singular_values[k]``.
     rank : int
     residuals : ndarray, shape (m, 6)
         Residuals at the solution (units of the method).
@@ -214,6 +216,7 @@ class IdentificationResult:
     covariance: NDArray[np.float64]
     correlation: NDArray[np.float64]
     singular_values: NDArray[np.float64]
+    singular_vectors: NDArray[np.float64]
     rank: int
     residuals: NDArray[np.float64]
     leg_rms_before: float
@@ -389,6 +392,7 @@ def identify(
         covariance=cov,
         correlation=corr,
         singular_values=sv,
+        singular_vectors=vt,
         rank=rank,
         residuals=sol.fun.reshape(m, 6),
         leg_rms_before=_rms(r0_len),

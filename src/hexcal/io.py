@@ -23,7 +23,6 @@ from typing import IO, Any
 import numpy as np
 import yaml
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
 from hexcal.geometry import Geometry, GeometryError
 from hexcal.measurement import Measurements
@@ -43,6 +42,12 @@ ORIENTATION_GROUPS = {
 }
 LEG_LENGTH_COLUMNS = tuple(f"l{i}" for i in range(1, 7))
 LEG_READING_COLUMNS = tuple(f"dl{i}" for i in range(1, 7))
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 class InputError(ValueError):
@@ -110,6 +115,7 @@ def atomic_write(path: str | os.PathLike[str]) -> Iterator[IO[str]]:
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
             yield fh
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual mode
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
@@ -143,6 +149,8 @@ class Table:
             for c, (k, name) in enumerate(zip(idx, names, strict=True)):
                 text = row[k]
                 try:
+                    if "_" in text:  # float() accepts digit separators; a CSV number has none
+                        raise ValueError(text)
                     value = float(text)
                 except ValueError:
                     raise InputError(
@@ -188,13 +196,15 @@ def read_table(path: str | os.PathLike[str]) -> Table:
     header: tuple[str, ...] | None = None
     rows: list[tuple[str, ...]] = []
     lines: list[int] = []
-    reader = csv.reader(text.splitlines())
-    for lineno, fields in enumerate(reader, start=1):
-        if not fields or all(not f.strip() for f in fields):
+    # one physical line is one record: comments are skipped before the csv module sees
+    # them (an unbalanced quote in a comment must not swallow the header)
+    for lineno, line in enumerate(text.splitlines(), start=1):
+        if not line.strip():
             continue
+        if header is None and line.lstrip().startswith("#"):
+            continue
+        fields = next(csv.reader([line]))
         if header is None:
-            if fields[0].lstrip().startswith("#"):
-                continue
             header = tuple(f.strip() for f in fields)
             for k, col in enumerate(header):
                 if col == "":
@@ -253,6 +263,8 @@ def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
                 f"{table.path}: line {table.lines[k]}, columns 'qx, qy, qz, qw': quaternion norm "
                 f"{norms[k]:.6g} is not 1 (tolerance {QUATERNION_NORM_TOLERANCE:g})"
             )
+        from scipy.spatial.transform import Rotation  # deferred: slow to import
+
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # gimbal lock: angles still valid
             angles = Rotation.from_quat(values / norms[:, None]).as_euler(euler)
@@ -343,3 +355,27 @@ def write_legs(
         ids,
         comment,
     )
+
+
+def write_measurements(
+    path: str | os.PathLike[str],
+    measurements: Measurements,
+    euler: str,
+    orientation: str = "rad",
+    comment: str | None = None,
+) -> None:
+    """Write a measurement file with orientations as ``rad``, ``deg`` or ``quat``."""
+    poses = measurements.poses
+    if orientation == "rad":
+        angles = poses[:, 3:]
+    elif orientation == "deg":
+        angles = np.rad2deg(poses[:, 3:])
+    elif orientation == "quat":
+        from scipy.spatial.transform import Rotation
+
+        angles = Rotation.from_euler(euler, poses[:, 3:]).as_quat()
+    else:
+        raise ValueError(f"orientation must be rad, deg or quat, got {orientation!r}")
+    columns = LEG_READING_COLUMNS + ("x", "y", "z") + ORIENTATION_GROUPS[orientation]
+    data = np.concatenate([measurements.readings, poses[:, :3], angles], axis=1)
+    write_table(path, columns, data, measurements.ids, comment)

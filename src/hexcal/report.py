@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hexcal.identification import IdentificationResult
 from hexcal.simulation import PaperExperiment
 
 #: The seed paper's Table I (mean absolute parameter error, mm) and its validation claims.
@@ -88,4 +89,142 @@ def format_paper_summary(summary: dict[str, Any]) -> str:
             f"   {paper['position']}, {paper['orientation']}"
         )
     lines.append("  (max: per-trial maximum averaged over trials; rms: over all poses)")
+    return "\n".join(lines)
+
+
+# -- identification ------------------------------------------------------------------
+
+#: Correlations above this magnitude are listed in the report.
+CORRELATION_REPORT = 0.9
+
+#: A scaled singular value below this fraction of the largest draws an identifiability
+#: warning (the parameter combination is determined ~1e4 times worse than the best).
+WEAK_SINGULAR_VALUE = 1e-4
+
+
+def identification_summary(
+    result: IdentificationResult,
+    outliers: tuple[str, ...] = (),
+    flagged: tuple[str, ...] = (),
+) -> dict[str, Any]:
+    """Machine-readable form of an identification (the ``--json`` file)."""
+    return {
+        "method": result.method,
+        "poses": result.n_poses,
+        "parameters": result.parameters,
+        "start": dict(zip(result.names, result.start_values.tolist(), strict=True)),
+        "stderr": result.standard_errors,
+        "rank": result.rank,
+        "n_parameters": len(result.names),
+        "singular_values": result.singular_values.tolist(),
+        "leg_rms_before": result.leg_rms_before,
+        "leg_rms_after": result.leg_rms_after,
+        "rms_before": result.rms_before,
+        "rms_after": result.rms_after,
+        "cost": result.cost,
+        "iterations": result.njev,
+        "function_evaluations": result.nfev,
+        "status": result.status,
+        "message": result.message,
+        "outliers": list(outliers),
+        "flagged": list(flagged),
+        "ids": list(result.ids),
+    }
+
+
+def _weak_combinations(result: IdentificationResult, count: int = 3) -> list[tuple[float, str]]:
+    """The smallest scaled singular values and the parameter combinations they belong to."""
+    out = []
+    sv = result.singular_values
+    for k in range(min(count, sv.size)):
+        vec = result.singular_vectors[-1 - k]
+        order = np.argsort(-np.abs(vec))[:4]
+        combo = " ".join(f"{vec[i]:+.2f}·{result.names[i]}" for i in order if abs(vec[i]) >= 0.05)
+        out.append((float(sv[-1 - k] / sv[0]), combo))
+    return out
+
+
+def format_identification_report(
+    result: IdentificationResult,
+    outliers: tuple[str, ...] = (),
+    flagged: tuple[str, ...] = (),
+    max_correlations: int = 10,
+) -> str:
+    """Text report of an identification, in the spirit of lmfit's ``fit_report``."""
+    unit = "mm" if result.method == "length" else "mm²"
+    n = len(result.names)
+    m = result.n_poses
+    lines = [
+        "[[Fit statistics]]",
+        f"    method              {result.method} (residual in {unit})",
+        f"    poses               {m}" + (f" (outliers removed: {', '.join(outliers)})" if outliers else ""),
+        f"    parameters          {n} varied",
+        f"    residuals           {6 * m} (degrees of freedom {6 * m - n})",
+        f"    leg RMS before      {result.leg_rms_before:.6g} mm",
+        f"    leg RMS after       {result.leg_rms_after:.6g} mm",
+        f"    cost                {result.cost:.6g} {unit}²",
+        f"    iterations          {result.njev} (function evaluations {result.nfev})",
+        f"    status              {result.status}: {result.message}",
+        f"    rank                {result.rank} of {n}",
+        "[[Parameters]]",
+        f"    {'name':<8}{'nominal':>14}{'identified':>14}{'change':>12}{'stderr':>12}",
+    ]
+    for name, start, value, err in zip(
+        result.names, result.start_values, result.values, result.stderr, strict=True
+    ):
+        lines.append(f"    {name:<8}{start:>14.6f}{value:>14.6f}{value - start:>+12.6f}{err:>12.6f}")
+    corr = result.correlation
+    iu = np.triu_indices(n, 1)
+    strong = np.argsort(-np.abs(corr[iu]))[:max_correlations]
+    lines.append(f"[[Correlations]] (|C| > {CORRELATION_REPORT:g}, strongest {max_correlations})")
+    listed = 0
+    for k in strong:
+        c = corr[iu[0][k], iu[1][k]]
+        if abs(c) < CORRELATION_REPORT:
+            break
+        lines.append(f"    C({result.names[iu[0][k]]}, {result.names[iu[1][k]]}) = {c:+.4f}")
+        listed += 1
+    if not listed:
+        lines.append("    none")
+    lines.append("[[Identifiability]]")
+    sv = result.singular_values
+    lines.append(
+        f"    numerical rank {result.rank} of {n}; condition number of the column-scaled Jacobian "
+        f"{sv[0] / sv[-1]:.3g}"
+    )
+    lines.append("    smallest scaled singular values (σ/σmax) and their parameter combinations:")
+    for ratio, combo in _weak_combinations(result):
+        mark = "  WEAK" if ratio < WEAK_SINGULAR_VALUE else ""
+        lines.append(f"      {ratio:.3g}{mark}: {combo}")
+    if sv[-1] / sv[0] < WEAK_SINGULAR_VALUE:
+        lines.append(
+            "    warning: some parameter combinations are barely determined by these poses; "
+            "add poses with larger rotations or fix parameters (--fix)"
+        )
+    lines.append("[[Pose check]]")
+    if flagged:
+        lines.append(
+            f"    warning: implausible residuals at pose(s) {', '.join(flagged)}: a gross measurement "
+            "error? (use --robust to identify without them)"
+        )
+    else:
+        lines.append("    no pose with implausible residuals")
+    return "\n".join(lines)
+
+
+def format_validation(calibrated: dict[str, float], nominal: dict[str, float] | None = None) -> str:
+    """Side-by-side table of validation summaries."""
+    cols = [("calibrated", calibrated)] + ([("nominal", nominal)] if nominal else [])
+    lines = [f"Validation on {calibrated['poses']} held-out pose(s)"]
+    lines.append(f"    {'':<26}" + "".join(f"{name:>14}" for name, _ in cols))
+    rows = [
+        ("leg residual RMS (mm)", "leg_rms"),
+        ("leg residual max (mm)", "leg_max"),
+        ("position error RMS (mm)", "position_rms"),
+        ("position error max (mm)", "position_max"),
+        ("orientation RMS (rad)", "orientation_rms"),
+        ("orientation max (rad)", "orientation_max"),
+    ]
+    for label, key in rows:
+        lines.append(f"    {label:<26}" + "".join(f"{d[key]:>14.4g}" for _, d in cols))
     return "\n".join(lines)

@@ -91,6 +91,41 @@ class MachineBatch:
         return result.poses
 
 
+def simulate_measurements(
+    nominal: Geometry,
+    true: Geometry,
+    poses: NDArray[np.float64],
+    noise: NoiseModel | None = None,
+    rng: np.random.Generator | int | None = None,
+    ids: tuple[str, ...] | None = None,
+) -> Measurements:
+    """Simulated measurements of commanded poses on a true machine (the paper's protocol).
+
+    Leg readings come from the nominal inverse kinematics; the true machine reaches the
+    forward kinematics of its leg lengths plus the leg sensor error; the measured pose
+    adds the pose measurement noise.
+
+    Parameters
+    ----------
+    nominal, true : Geometry
+    poses : array_like, shape (m, 6)
+        Commanded poses.
+    noise : NoiseModel, optional
+        Default the paper's.
+    rng : Generator, int or None
+    ids : tuple of str, optional
+    """
+    noise = NoiseModel() if noise is None else noise
+    rng = np.random.default_rng(rng)
+    poses = np.asarray(poses, dtype=float).reshape(-1, 6)
+    m = poses.shape[0]
+    readings = leg_readings(nominal, inverse_kinematics(nominal, poses))
+    machine = MachineBatch.from_vectors(true.to_vector()[None], true.leg_gains)
+    sensor = noise.leg_errors(rng, (m,))
+    reached = machine.reach((readings + sensor / true.leg_gains)[None], poses[None], true.euler)[0]
+    return Measurements(reached + noise.pose_errors(rng, (m,)), readings, ids or ())
+
+
 def pose_errors(
     targets: NDArray[np.float64], reached: NDArray[np.float64], euler: str
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
