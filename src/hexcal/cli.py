@@ -431,6 +431,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--euler", help="Euler sequence of the angles (default: the nominal geometry's)")
     p.set_defaults(func=cmd_synthesize)
 
+    from hexcal.cli_plan import register
+
+    register(sub, geometry_help)
+
     p = sub.add_parser("paper", help="reproduce the seed paper's Table I by Monte Carlo")
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {geometry_help}")
     p.add_argument(

@@ -1,0 +1,113 @@
+"""Information, covariance and observability of kinematic parameters for a pose set.
+
+The measurement model of one pose ``j`` is the six leg equations
+``|o_j + R_j s_i - u_i| - (l0_i + g_i dl_ij) = 0`` with a measured pose
+``pose_j + e_pose`` (covariance ``Σ_pose``) and leg readings whose lengths carry a
+sensor error of variance ``σ_leg²``. Linearised, the residual of pose ``j`` is
+
+    r_j = A_j δθ + J_j e_pose + e_leg,
+
+with ``A_j`` (6 × n) the identification Jacobian (:func:`hexcal.identification.identification_jacobian`)
+and ``J_j`` (6 × 6) the pose Jacobian (:func:`hexcal.kinematics.pose_jacobian`). Its
+covariance is ``C_j = J_j Σ_pose J_jᵀ + σ_leg² I``, and the Fisher information of the
+parameters, with the six true pose values of every measurement eliminated as
+nuisance parameters (errors in variables), is
+
+    F = Σ_j A_jᵀ C_j⁻¹ A_j.
+
+Its inverse is the Cramér–Rao bound of any unbiased estimator and the covariance of
+the generalised least-squares estimate; it is also the noise-weighted information
+matrix on which optimal pose selection works.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hexcal.geometry import Geometry, select_parameters
+from hexcal.identification import identification_jacobian
+from hexcal.kinematics import inverse_kinematics, leg_readings, pose_jacobian
+from hexcal.measurement import Measurements, NoiseModel
+
+
+def planned_measurements(geometry: Geometry, poses: ArrayLike) -> Measurements:
+    """Noise-free measurements of poses on ``geometry`` (readings from its inverse kinematics)."""
+    poses = np.asarray(poses, dtype=float).reshape(-1, 6)
+    return Measurements(poses, leg_readings(geometry, inverse_kinematics(geometry, poses)))
+
+
+def residual_covariances(
+    geometry: Geometry, poses: ArrayLike, noise: NoiseModel | None = None
+) -> NDArray[np.float64]:
+    """Covariance ``C_j = J_j Σ_pose J_jᵀ + σ_leg² I`` of the six leg residuals of each pose.
+
+    Returns
+    -------
+    ndarray, shape (m, 6, 6), mm²
+    """
+    noise = NoiseModel() if noise is None else noise
+    s_leg, s_pos, s_ang = noise.sigmas
+    jac = pose_jacobian(geometry, np.asarray(poses, dtype=float).reshape(-1, 6))
+    pose_var = np.array([s_pos**2] * 3 + [s_ang**2] * 3)
+    return np.einsum("mik,k,mjk->mij", jac, pose_var, jac) + s_leg**2 * np.eye(6)
+
+
+def whitening(covariances: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Matrices ``W_j`` with ``W_jᵀ W_j = C_j⁻¹`` (inverse Cholesky factors), shape (m, 6, 6)."""
+    chol = np.linalg.cholesky(covariances)
+    return np.linalg.inv(chol)
+
+
+def whitened_jacobian(
+    geometry: Geometry,
+    poses: ArrayLike,
+    noise: NoiseModel | None = None,
+    mask: ArrayLike | None = None,
+    readings: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """Noise-whitened identification Jacobian ``W_j A_j`` stacked over poses, shape (6 m, n).
+
+    ``readings`` default to the geometry's own inverse kinematics (planning: the
+    Jacobian does not depend on them except through gain columns).
+    """
+    poses = np.asarray(poses, dtype=float).reshape(-1, 6)
+    mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
+    if readings is None:
+        data = planned_measurements(geometry, poses)
+    else:
+        data = Measurements(poses, readings)
+    a = identification_jacobian(geometry, data, "length", mask).reshape(len(poses), 6, -1)
+    w = whitening(residual_covariances(geometry, poses, noise))
+    return np.einsum("mij,mjk->mik", w, a).reshape(6 * len(poses), -1)
+
+
+def fisher_information(
+    geometry: Geometry,
+    poses: ArrayLike,
+    noise: NoiseModel | None = None,
+    mask: ArrayLike | None = None,
+    readings: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """Errors-in-variables Fisher information of the parameters, shape (n, n).
+
+    See the module docstring; units are those of the parameters (mm⁻², and mm⁻²
+    times the gain scale for gains).
+    """
+    wa = whitened_jacobian(geometry, poses, noise, mask, readings)
+    return wa.T @ wa
+
+
+def cramer_rao_covariance(
+    geometry: Geometry,
+    poses: ArrayLike,
+    noise: NoiseModel | None = None,
+    mask: ArrayLike | None = None,
+    readings: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """Cramér–Rao bound: the inverse Fisher information (pseudo-inverse by SVD), shape (n, n)."""
+    wa = whitened_jacobian(geometry, poses, noise, mask, readings)
+    _, sv, vt = np.linalg.svd(wa, full_matrices=False)
+    keep = sv > sv[0] * 1e-12
+    vs = vt[keep].T / sv[keep]
+    return vs @ vs.T
