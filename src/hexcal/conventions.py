@@ -99,6 +99,7 @@ def rotation_matrices(angles: ArrayLike, euler: str = DEFAULT_EULER) -> NDArray[
     -------
     ndarray, shape (..., 3, 3)
     """
+    check_euler(euler)
     angles = np.asarray(angles, dtype=float)
     if angles.shape[-1:] != (3,):
         raise ValueError(f"angles must have shape (..., 3), got {angles.shape}")
@@ -125,6 +126,7 @@ def euler_axes(angles: ArrayLike, euler: str = DEFAULT_EULER) -> NDArray[np.floa
     ndarray, shape (..., 3, 3)
         Row ``k`` is the unit axis ``w_k`` in the base frame.
     """
+    check_euler(euler)
     angles = np.asarray(angles, dtype=float)
     batch = angles.shape[:-1]
     flat_t = angles.reshape(-1, 3).T

@@ -6,6 +6,7 @@ Parameter order and names follow FORMATS.md: ``u1.x u1.y u1.z ... u6.z``,
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
@@ -116,6 +117,8 @@ class Geometry:
             if np.any(box[:, 0] > box[:, 1]):
                 raise GeometryError("workspace ranges must be [low, high] with low <= high")
             put(self, "workspace", box)
+        if self.calibration is not None:
+            put(self, "calibration", copy.deepcopy(dict(self.calibration)))
         try:
             check_euler(self.euler)
         except ValueError as exc:
@@ -222,7 +225,7 @@ class Geometry:
         if self.workspace is not None:
             out["workspace"] = _box_to_mapping(self.workspace)
         if self.calibration is not None:
-            out["calibration"] = self.calibration
+            out["calibration"] = copy.deepcopy(self.calibration)
         return out
 
 
