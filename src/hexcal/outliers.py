@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import fdtri
 from scipy.optimize import least_squares
+from scipy.special import fdtri
 
 from hexcal.geometry import Geometry, select_parameters
 from hexcal.identification import (
