@@ -313,15 +313,7 @@ def identify(
     if mask.shape != (N_ALL_PARAMETERS,):
         raise ValueError(f"mask must have shape (48,), got {mask.shape}")
     n_vary = int(mask.sum())
-    m = len(measurements)
-    min_poses = MIN_POSES + (1 if mask[42:].any() else 0)
-    if m < min_poses:
-        raise IdentificationError(
-            f"{m} poses cannot determine the parameters: at least {min_poses} are needed "
-            f"(each leg has {min_poses} parameters and gets one equation per pose)"
-        )
-    if 6 * m <= n_vary:
-        raise IdentificationError(f"{6 * m} equations for {n_vary} parameters: measure more poses")
+    check_data_size(measurements, mask)
     rot, pos = _prepare(start, measurements.poses)
     readings = measurements.readings
     full0 = start.to_vector(gains=True)
@@ -339,14 +331,7 @@ def identify(
     def jac(x: NDArray[np.float64]) -> NDArray[np.float64]:
         return _jacobian(unpack(x), rot, pos, readings, method)[:, mask] * scale
 
-    j0 = jac(np.zeros(n_vary))
-    _, sv0, vt0 = _column_svd(j0)
-    if _rank(sv0) < n_vary:
-        raise IdentificationError(
-            "the poses cannot identify all parameters (rank-deficient Jacobian: rank "
-            f"{_rank(sv0)} of {n_vary}; weakest combination: {_combination(vt0[-1], mask)})"
-        )
-    r0_len = _residuals(full0, rot, pos, readings, "length")
+    check_rank(jac(np.zeros(n_vary)), mask)
     r0 = fun(np.zeros(n_vary))
     # x_scale=1: the variables are already in PARAMETER_SCALE units (scipy >= 1.16
     # defaults LM to 'jac' scaling, which starts with steps far too small here)
@@ -363,26 +348,77 @@ def identify(
     )
     if sol.status <= 0 or not np.all(np.isfinite(sol.x)):
         raise IdentificationError(f"the solver did not converge: {sol.message}")
-    full = unpack(sol.x)
-    norms, sv, vt = _column_svd(sol.jac)
+    return finish_result(
+        start, measurements, method, mask, unpack(sol.x), sol.fun, sol.jac, _rms(r0), sol
+    )
+
+
+def check_data_size(measurements: Measurements, mask: NDArray[np.bool_]) -> None:
+    """Refuse data sets too small to determine the varied parameters."""
+    n_vary = int(mask.sum())
+    m = len(measurements)
+    min_poses = MIN_POSES + (1 if mask[42:].any() else 0)
+    if m < min_poses:
+        raise IdentificationError(
+            f"{m} poses cannot determine the parameters: at least {min_poses} are needed "
+            f"(each leg has {min_poses} parameters and gets one equation per pose)"
+        )
+    if 6 * m <= n_vary:
+        raise IdentificationError(f"{6 * m} equations for {n_vary} parameters: measure more poses")
+
+
+def check_rank(jac: NDArray[np.float64], mask: NDArray[np.bool_], where: str = "") -> None:
+    """Refuse a rank-deficient (scaled) Jacobian, naming the weakest combination."""
+    _, sv, vt = _column_svd(jac)
+    n = int(mask.sum())
+    if _rank(sv) < n:
+        raise IdentificationError(
+            f"the poses cannot identify all parameters{where} (rank-deficient Jacobian: rank "
+            f"{_rank(sv)} of {n}; weakest combination: {_combination(vt[-1], mask)})"
+        )
+
+
+def finish_result(
+    start: Geometry,
+    measurements: Measurements,
+    method: str,
+    mask: NDArray[np.bool_],
+    full: NDArray[np.float64],
+    residuals: NDArray[np.float64],
+    jac_scaled: NDArray[np.float64],
+    rms_before: float,
+    sol: Any,
+    dof: int | None = None,
+) -> IdentificationResult:
+    """Build the result of a converged fit (shared by all estimators).
+
+    ``jac_scaled`` is the Jacobian of ``residuals`` with respect to the varied
+    parameters in :data:`PARAMETER_SCALE` units; ``dof`` defaults to
+    ``residuals.size - n``.
+    """
+    scale = PARAMETER_SCALE[mask]
+    n_vary = int(mask.sum())
+    m = len(measurements)
+    norms, sv, vt = _column_svd(jac_scaled)
     rank = _rank(sv)
     if rank < n_vary:
         raise IdentificationError(
             f"rank-deficient Jacobian at the solution (rank {rank} of {n_vary}; weakest "
             f"combination: {_combination(vt[-1], mask)})"
         )
-    dof = sol.fun.size - n_vary
-    s2 = float(sol.fun @ sol.fun) / dof
+    dof = residuals.size - n_vary if dof is None else dof
+    s2 = float(residuals @ residuals) / dof
     vs = vt.T / sv
-    cov_scaled = (vs @ vs.T) / np.outer(norms, norms) * s2
-    cov = cov_scaled * np.outer(scale, scale)
+    cov = (vs @ vs.T) / np.outer(norms, norms) * s2 * np.outer(scale, scale)
     stderr = np.sqrt(np.diag(cov))
     corr = cov / np.outer(stderr, stderr)
-    geometry = start.with_vector(full)
-    r_len = _residuals(full, rot, pos, readings, "length")
+    rot, pos = _prepare(start, measurements.poses)
+    full0 = start.to_vector(gains=True)
+    r0_len = _residuals(full0, rot, pos, measurements.readings, "length")
+    r_len = _residuals(full, rot, pos, measurements.readings, "length")
     names = tuple(n for n, keep in zip(PARAMETER_NAMES, mask, strict=True) if keep)
     return IdentificationResult(
-        geometry=geometry,
+        geometry=start.with_vector(full),
         start=start,
         method=method,
         names=names,
@@ -394,11 +430,11 @@ def identify(
         singular_values=sv,
         singular_vectors=vt,
         rank=rank,
-        residuals=sol.fun.reshape(m, 6),
+        residuals=residuals.reshape(m, -1),
         leg_rms_before=_rms(r0_len),
         leg_rms_after=_rms(r_len),
-        rms_before=_rms(r0),
-        rms_after=_rms(sol.fun),
+        rms_before=rms_before,
+        rms_after=_rms(residuals),
         cost=float(sol.cost),
         nfev=int(sol.nfev),
         njev=int(sol.njev or 0),
