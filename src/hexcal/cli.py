@@ -7,7 +7,9 @@ with one line ``hexcal: error: ...`` on stderr and exit status 1, and no output 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
 import sys
 import time
 import warnings
@@ -153,33 +155,57 @@ def _check_outputs(*paths: str | None) -> None:
             raise CommandError(f"{path}: is a folder, not a file")
 
 
+def _noise(args: argparse.Namespace) -> NoiseModel:
+    """The noise model of ``--noise``, ``--noise-dist`` and ``--pose-covariance``."""
+    noise = parse_noise(args.noise, args.noise_dist)
+    path = getattr(args, "pose_covariance", None)
+    if path:
+        from hexcal.io import read_matrix
+
+        try:
+            noise = NoiseModel(
+                leg=noise.leg, distribution=noise.distribution, pose_covariance=read_matrix(path, (6, 6))
+            )
+        except ValueError as exc:
+            raise CommandError(f"{path}: {exc}") from None
+    return noise
+
+
 def cmd_identify(args: argparse.Namespace) -> None:
+    import dataclasses
+
     from hexcal.geometry import select_parameters
     from hexcal.identification import identify
     from hexcal.io import read_measurements
+    from hexcal.likelihood import estimate
     from hexcal.outliers import identify_robust, pose_diagnostics
     from hexcal.report import format_identification_report, identification_summary
 
     _check_outputs(args.out, args.report, args.json)
     nominal = _geometry(args.geometry, args.euler)
     data = read_measurements(args.data, nominal.euler)
+    noise = _noise(args)
     try:
         mask = select_parameters(args.fit, args.fix or ())
     except ValueError as exc:
         raise CommandError(str(exc)) from None
     outliers: tuple[str, ...] = ()
+    # outliers are found on least-squares fits (their deletion diagnostics are exact for LS);
+    # the chosen estimator then runs on the poses kept
+    check_method = "paper" if args.method == "paper" else "length"
     if args.robust:
-        robust = identify_robust(nominal, data, method=args.method, mask=mask)
-        result, outliers = robust.result, robust.outliers
-        used = data.subset(robust.kept)
-        diag = robust.diagnostics
+        robust = identify_robust(nominal, data, method=check_method, mask=mask)
+        outliers, used, diag = robust.outliers, data.subset(robust.kept), robust.diagnostics
     else:
-        result = identify(nominal, data, method=args.method, mask=mask)
         used = data
-        diag = pose_diagnostics(result, used, mask)
+    result = estimate(nominal, used, args.method, mask, noise)
+    if not args.robust:
+        ls = result if args.method == check_method else identify(result.geometry, used, check_method, mask)
+        if ls is not result:
+            ls = dataclasses.replace(ls, start=nominal)
+        diag = pose_diagnostics(ls, used, mask)
     flagged = tuple(used.ids[k] for k in diag.flagged)
     text = format_identification_report(result, outliers, flagged)
-    print(text)
     calibration = result.calibration_metadata()
     calibration["data"] = str(args.data)
     calibration["outliers"] = list(outliers)
@@ -192,6 +218,7 @@ def cmd_identify(args: argparse.Namespace) -> None:
         with atomic_write(args.json) as fh:
             json.dump(identification_summary(result, outliers, flagged), fh, indent=2)
             fh.write("\n")
+    print(text)
     print(f"wrote the calibrated geometry to {args.out}")
 
 
@@ -355,6 +382,25 @@ def cmd_paper(args: argparse.Namespace) -> None:
 # -- parser -------------------------------------------------------------------------
 
 
+def _noise_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--noise",
+        help="measurement noise: leg=MM,pos=MM,ang=RAD (default the seed paper's "
+        "leg=0.01,pos=0.025,ang=0.001)",
+    )
+    p.add_argument(
+        "--noise-dist",
+        choices=("uniform", "normal"),
+        default="uniform",
+        help="uniform: the values are half-widths a (σ = a/√3); normal: they are σ",
+    )
+    p.add_argument(
+        "--pose-covariance",
+        metavar="FILE",
+        help="full 6x6 pose covariance (mm², mm·rad, rad²; 6 rows of 6 numbers), replacing pos and ang",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="hexcal", description="Kinematic calibration of hexapods (Stewart-Gough platforms)."
@@ -389,10 +435,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="calibrated geometry YAML file to write")
     p.add_argument(
         "--method",
-        choices=("length", "paper"),
-        default="length",
-        help="residual: leg length (default) or the seed paper's squared lengths (eq. 3)",
+        choices=("ml", "gls", "length", "paper"),
+        default="ml",
+        help="estimator: maximum likelihood (default), generalised least squares, least squares "
+        "on leg lengths, or the seed paper's squared lengths (eq. 3)",
     )
+    _noise_options(p)
     p.add_argument("--fit", default="joints,l0", help="parameter groups: joints, base, platform, l0, gains")
     p.add_argument("--fix", nargs="+", metavar="NAME", help="parameters to hold, e.g. u1.z l0_1")
     p.add_argument("--robust", action="store_true", help="find and leave out outlying poses")
@@ -465,6 +513,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     warnings.showwarning = _show_warning
     try:
         args.func(args)
+    except BrokenPipeError:  # output piped into `head`: not an error of hexcal's
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except (
         CommandError,
         InputError,

@@ -27,7 +27,7 @@ from hexcal.geometry import (
     Geometry,
     select_parameters,
 )
-from hexcal.measurement import Measurements
+from hexcal.measurement import Measurements, NoiseModel
 
 METHODS = ("paper", "length")
 
@@ -204,6 +204,10 @@ class IdentificationResult:
     n_poses : int
     ids : tuple of str
         Ids of the poses used.
+    bound : ndarray, shape (n,), optional
+        Cramér–Rao σ of each parameter under ``noise`` (see :mod:`hexcal.likelihood`).
+    noise : NoiseModel, optional
+        The noise model used by the estimator or the bound.
     """
 
     geometry: Geometry
@@ -230,6 +234,20 @@ class IdentificationResult:
     message: str
     n_poses: int
     ids: tuple[str, ...] = field(default=())
+    bound: NDArray[np.float64] | None = None
+    noise: NoiseModel | None = None
+
+    @property
+    def reduced_chi2(self) -> float:
+        """Residual variance per degree of freedom (about 1 for whitened residuals
+        under a correct noise model)."""
+        dof = self.dof
+        return float(np.sum(self.residuals**2) / dof) if dof > 0 else float("nan")
+
+    @property
+    def dof(self) -> int:
+        """Degrees of freedom: six leg equations per pose less the varied parameters."""
+        return 6 * self.n_poses - len(self.names)
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -252,6 +270,12 @@ class IdentificationResult:
             "status": self.status,
             "rank": self.rank,
             "stderr": self.standard_errors,
+            **(
+                {"bound": dict(zip(self.names, self.bound.tolist(), strict=True))}
+                if self.bound is not None
+                else {}
+            ),
+            **({"noise": self.noise.describe()} if self.noise is not None else {}),
         }
 
 
@@ -348,9 +372,7 @@ def identify(
     )
     if sol.status <= 0 or not np.all(np.isfinite(sol.x)):
         raise IdentificationError(f"the solver did not converge: {sol.message}")
-    return finish_result(
-        start, measurements, method, mask, unpack(sol.x), sol.fun, sol.jac, _rms(r0), sol
-    )
+    return finish_result(start, measurements, method, mask, unpack(sol.x), sol.fun, sol.jac, _rms(r0), sol)
 
 
 def check_data_size(measurements: Measurements, mask: NDArray[np.bool_]) -> None:

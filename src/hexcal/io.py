@@ -379,3 +379,34 @@ def write_measurements(
     columns = LEG_READING_COLUMNS + ("x", "y", "z") + ORIENTATION_GROUPS[orientation]
     data = np.concatenate([measurements.readings, poses[:, :3], angles], axis=1)
     write_table(path, columns, data, measurements.ids, comment)
+
+
+def read_matrix(path: str | os.PathLike[str], shape: tuple[int, int]) -> NDArray[np.float64]:
+    """A small numeric matrix: rows of numbers separated by commas or blanks; ``#`` comments."""
+    name = str(path)
+    try:
+        with open(path, encoding="utf-8") as fh:
+            lines = fh.read().splitlines()
+    except FileNotFoundError:
+        raise InputError(f"{name}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{name}: cannot read: {exc}") from None
+    rows = []
+    for lineno, line in enumerate(lines, start=1):
+        text = line.split("#", 1)[0].replace(",", " ").split()
+        if not text:
+            continue
+        try:
+            if any("_" in v for v in text):  # float() accepts digit separators
+                raise ValueError
+            values = [float(v) for v in text]
+        except ValueError:
+            raise InputError(f"{name}: line {lineno}: not a row of numbers: {line.strip()!r}") from None
+        if len(values) != shape[1]:
+            raise InputError(f"{name}: line {lineno}: {len(values)} numbers, expected {shape[1]}")
+        if not all(math.isfinite(v) for v in values):
+            raise InputError(f"{name}: line {lineno}: NaN or inf")
+        rows.append(values)
+    if len(rows) != shape[0]:
+        raise InputError(f"{name}: {len(rows)} rows, expected {shape[0]}")
+    return np.array(rows)

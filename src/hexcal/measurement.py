@@ -63,7 +63,7 @@ class Measurements:
         return Measurements(self.poses[idx], self.readings[idx], tuple(self.ids[i] for i in idx))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class NoiseModel:
     """Measurement noise: leg sensor, position and orientation.
 
@@ -78,6 +78,9 @@ class NoiseModel:
     distribution : {"uniform", "normal"}
         With ``uniform`` the values are half-widths ``a`` of ``U(-a, a)`` (standard
         deviation ``a / sqrt(3)``); with ``normal`` they are standard deviations.
+    pose_covariance : array_like, shape (6, 6), optional
+        Full covariance of the pose measurement error (mm², mm·rad, rad²), replacing
+        ``position`` and ``orientation``; its errors are drawn from a normal distribution.
 
     The defaults are the seed paper's section VI: ±0.01 mm, ±0.025 mm, ±0.001 rad.
     """
@@ -86,8 +89,17 @@ class NoiseModel:
     position: float = 0.025
     orientation: float = 0.001
     distribution: str = "uniform"
+    pose_covariance: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
+        if self.pose_covariance is not None:
+            cov = np.array(self.pose_covariance, dtype=float)
+            if cov.shape != (6, 6) or not np.all(np.isfinite(cov)):
+                raise ValueError(f"pose covariance must be a finite 6x6 matrix, got shape {cov.shape}")
+            if not np.allclose(cov, cov.T, rtol=1e-9, atol=0) or np.linalg.eigvalsh(cov)[0] < 0:
+                raise ValueError("pose covariance must be symmetric positive semi-definite")
+            cov.flags.writeable = False
+            object.__setattr__(self, "pose_covariance", cov)
         if self.distribution not in ("uniform", "normal"):
             raise ValueError(f"noise distribution must be 'uniform' or 'normal', got {self.distribution!r}")
         for name in ("leg", "position", "orientation"):
@@ -101,6 +113,23 @@ class NoiseModel:
         k = 1 / np.sqrt(3) if self.distribution == "uniform" else 1.0
         return (self.leg * k, self.position * k, self.orientation * k)
 
+    def pose_cov(self) -> NDArray[np.float64]:
+        """Covariance of the pose measurement error, shape (6, 6)."""
+        if self.pose_covariance is not None:
+            return np.array(self.pose_covariance)
+        _, s_pos, s_ang = self.sigmas
+        return np.diag([s_pos**2] * 3 + [s_ang**2] * 3)
+
+    def describe(self) -> str:
+        """One line for reports."""
+        if self.pose_covariance is not None:
+            return f"leg σ {self.sigmas[0]:.4g} mm, full 6x6 pose covariance"
+        kind = "uniform ±" if self.distribution == "uniform" else "normal σ "
+        return (
+            f"{kind}{self.leg:g} mm legs, {kind}{self.position:g} mm position, "
+            f"{kind}{self.orientation:g} rad orientation"
+        )
+
     def _draw(self, rng: np.random.Generator, scale: float, shape: tuple[int, ...]) -> NDArray:
         if self.distribution == "uniform":
             return rng.uniform(-scale, scale, size=shape)
@@ -112,6 +141,8 @@ class NoiseModel:
 
     def pose_errors(self, rng: np.random.Generator, shape: tuple[int, ...]) -> NDArray:
         """Pose measurement errors of shape ``shape + (6,)``, mm and rad."""
+        if self.pose_covariance is not None:
+            return rng.multivariate_normal(np.zeros(6), self.pose_covariance, size=shape, method="eigh")
         pos = self._draw(rng, self.position, (*shape, 3))
         ang = self._draw(rng, self.orientation, (*shape, 3))
         return np.concatenate([pos, ang], axis=-1)

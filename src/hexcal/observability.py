@@ -47,10 +47,9 @@ def residual_covariances(
     ndarray, shape (m, 6, 6), mm²
     """
     noise = NoiseModel() if noise is None else noise
-    s_leg, s_pos, s_ang = noise.sigmas
+    s_leg = noise.sigmas[0]
     jac = pose_jacobian(geometry, np.asarray(poses, dtype=float).reshape(-1, 6))
-    pose_var = np.array([s_pos**2] * 3 + [s_ang**2] * 3)
-    return np.einsum("mik,k,mjk->mij", jac, pose_var, jac) + s_leg**2 * np.eye(6)
+    return np.einsum("mik,kl,mjl->mij", jac, noise.pose_cov(), jac) + s_leg**2 * np.eye(6)
 
 
 def whitening(covariances: NDArray[np.float64]) -> NDArray[np.float64]:

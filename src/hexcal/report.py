@@ -151,28 +151,54 @@ def format_identification_report(
     max_correlations: int = 10,
 ) -> str:
     """Text report of an identification, in the spirit of lmfit's ``fit_report``."""
-    unit = "mm" if result.method == "length" else "mm²"
+    unit = {"length": "mm", "paper": "mm²"}.get(result.method, "whitened, 1")
     n = len(result.names)
     m = result.n_poses
+    described = {
+        "ml": "maximum likelihood (errors in variables)",
+        "gls": "generalised least squares (propagated pose covariance)",
+        "length": "least squares on leg lengths",
+        "paper": "least squares on squared leg lengths (the seed paper's eq. 3)",
+    }
     lines = [
         "[[Fit statistics]]",
-        f"    method              {result.method} (residual in {unit})",
+        f"    method              {result.method}: {described.get(result.method, result.method)}",
+        f"    residual unit       {unit}",
         f"    poses               {m}" + (f" (outliers removed: {', '.join(outliers)})" if outliers else ""),
         f"    parameters          {n} varied",
-        f"    residuals           {6 * m} (degrees of freedom {6 * m - n})",
+        f"    degrees of freedom  {result.dof}",
         f"    leg RMS before      {result.leg_rms_before:.6g} mm",
         f"    leg RMS after       {result.leg_rms_after:.6g} mm",
-        f"    cost                {result.cost:.6g} {unit}²",
+        f"    cost                {result.cost:.6g}",
+        (
+            f"    reduced chi-square  {result.reduced_chi2:.4g}"
+            if result.method in ("ml", "gls")
+            else f"    residual std dev    {np.sqrt(result.reduced_chi2):.4g} {unit}"
+        ),
         f"    iterations          {result.njev} (function evaluations {result.nfev})",
         f"    status              {result.status}: {result.message}",
         f"    rank                {result.rank} of {n}",
-        "[[Parameters]]",
-        f"    {'name':<8}{'nominal':>14}{'identified':>14}{'change':>12}{'stderr':>12}",
     ]
-    for name, start, value, err in zip(
-        result.names, result.start_values, result.values, result.stderr, strict=True
+    if result.noise is not None:
+        lines.append(f"    noise model         {result.noise.describe()}")
+        if result.method in ("ml", "gls") and not 0.5 < result.reduced_chi2 < 2.0:
+            lines.append(
+                "    warning: the reduced chi-square is far from 1: the noise model does not describe "
+                "these data (give the instrument's noise with --noise)"
+            )
+    bound = result.bound
+    header = f"    {'name':<8}{'nominal':>14}{'identified':>14}{'change':>12}{'stderr':>12}"
+    lines += ["[[Parameters]]", header + (f"{'CR bound':>12}" if bound is not None else "")]
+    for k, (name, start, value, err) in enumerate(
+        zip(result.names, result.start_values, result.values, result.stderr, strict=True)
     ):
-        lines.append(f"    {name:<8}{start:>14.6f}{value:>14.6f}{value - start:>+12.6f}{err:>12.6f}")
+        row = f"    {name:<8}{start:>14.6f}{value:>14.6f}{value - start:>+12.6f}{err:>12.6f}"
+        lines.append(row + (f"{bound[k]:>12.6f}" if bound is not None else ""))
+    if bound is not None:
+        lines.append(
+            "    (stderr: from the fit; CR bound: Cramér–Rao σ of any unbiased estimator under the "
+            "noise model)"
+        )
     corr = result.correlation
     iu = np.triu_indices(n, 1)
     strong = np.argsort(-np.abs(corr[iu]))[:max_correlations]
