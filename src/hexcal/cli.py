@@ -348,6 +348,7 @@ def cmd_paper(args: argparse.Namespace) -> None:
         method=args.method,
         jobs=args.jobs,
         progress=_Progress("identifications", args.quiet),
+        extra_rows=(("boundary_ml", "boundary", "ml"),),
     )
     summary = paper_summary(
         experiment,
@@ -495,7 +496,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=("paper", "length"), default="paper")
     p.add_argument("--noise", help="noise half-widths, e.g. leg=0.01,pos=0.025,ang=0.001")
     p.add_argument("--noise-dist", choices=("uniform", "normal"), default="uniform")
-    p.add_argument("--jobs", type=int, default=1, help="processes for the identifications")
+    p.add_argument(
+        "--jobs", type=int, default=None, help="processes for the identifications (default: all cores)"
+    )
     p.add_argument("--out", help="folder for table1.json and the figures")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=cmd_paper)

@@ -110,3 +110,36 @@ def cramer_rao_covariance(
     keep = sv > sv[0] * 1e-12
     vs = vt[keep].T / sv[keep]
     return vs @ vs.T
+
+
+def bound_mean_abs_error(
+    geometry: Geometry,
+    pose_sets: ArrayLike,
+    noise: NoiseModel | None = None,
+    mask: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """Cramér–Rao bound of the mean absolute parameter error of each pose set.
+
+    ``sqrt(2/π) · mean_i σ_i`` with ``σ_i`` the bound's standard deviation of parameter
+    ``i``: the mean absolute error of an unbiased, normally distributed estimator that
+    attains the bound (no unbiased estimator's errors have a smaller variance).
+
+    Parameters
+    ----------
+    geometry : Geometry
+        The true machine.
+    pose_sets : array_like, shape (T, n, 6)
+        ``T`` sets of ``n`` measurement poses each.
+    noise : NoiseModel, optional
+    mask : array_like of bool, shape (48,), optional
+
+    Returns
+    -------
+    ndarray, shape (T,), mm
+    """
+    sets = np.asarray(pose_sets, dtype=float)
+    t, n = sets.shape[:2]
+    wa = whitened_jacobian(geometry, sets.reshape(-1, 6), noise, mask).reshape(t, 6 * n, -1)
+    _, sv, vt = np.linalg.svd(wa, full_matrices=False)
+    variances = np.einsum("tkp,tk->tp", vt**2, 1.0 / sv**2)
+    return np.sqrt(2 / np.pi) * np.sqrt(variances).mean(axis=1)

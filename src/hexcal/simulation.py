@@ -23,14 +23,14 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.conventions import orientation_error
 from hexcal.geometry import N_BASE_PARAMETERS, Geometry, select_parameters
-from hexcal.identification import IdentificationError, identify
+from hexcal.identification import IdentificationError
 from hexcal.kinematics import (
     forward_kinematics_from_arrays,
     inverse_kinematics,
@@ -39,7 +39,9 @@ from hexcal.kinematics import (
     random_poses,
     workspace_corners,
 )
+from hexcal.likelihood import estimate
 from hexcal.measurement import Measurements, NoiseModel
+from hexcal.observability import bound_mean_abs_error
 
 Progress = Callable[[int, int], None]
 
@@ -134,13 +136,15 @@ def pose_errors(
     return position, orientation_error(targets[..., 3:], reached[..., 3:], euler)
 
 
-def _identify_many(start: Geometry, datasets: list[Measurements], method: str) -> NDArray[np.float64]:
+def _identify_many(
+    start: Geometry, datasets: list[Measurements], method: str, noise: NoiseModel | None = None
+) -> NDArray[np.float64]:
     """Identified 42-vectors of several data sets; NaN rows where identification failed."""
     mask = select_parameters()
     out = np.full((len(datasets), N_BASE_PARAMETERS), np.nan)
     for k, data in enumerate(datasets):
         try:
-            out[k] = identify(start, data, method=method, mask=mask).values
+            out[k] = estimate(start, data, method, mask, noise, with_bound=False).values
         except IdentificationError:
             pass
     return out
@@ -152,13 +156,15 @@ def identify_batch(
     method: str = "paper",
     jobs: int | None = 1,
     progress: Progress | None = None,
+    noise: NoiseModel | None = None,
 ) -> NDArray[np.float64]:
     """Identify many data sets, in ``jobs`` processes (``None``: all cores).
 
-    Returns the identified 42-vectors, shape ``(len(datasets), 42)``, with NaN rows
-    where an identification failed.
+    ``method`` is any of :data:`hexcal.likelihood.ESTIMATORS`; ``noise`` is the noise
+    model the ``ml`` and ``gls`` estimators assume. Returns the identified 42-vectors,
+    shape ``(len(datasets), 42)``, with NaN rows where an identification failed.
     """
-    jobs = os.cpu_count() or 1 if jobs is None else max(1, int(jobs))
+    jobs = (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
     n = len(datasets)
     chunk = max(1, min(50, -(-n // (4 * jobs))))
     pieces = [datasets[i : i + chunk] for i in range(0, n, chunk)]
@@ -166,13 +172,13 @@ def identify_batch(
     done = 0
     if jobs == 1 or len(pieces) == 1:
         for piece in pieces:
-            results.append(_identify_many(start, piece, method))
+            results.append(_identify_many(start, piece, method, noise))
             done += len(piece)
             if progress:
                 progress(done, n)
     else:
         with ProcessPoolExecutor(max_workers=jobs) as pool:
-            futures = [pool.submit(_identify_many, start, piece, method) for piece in pieces]
+            futures = [pool.submit(_identify_many, start, piece, method, noise) for piece in pieces]
             for piece, future in zip(pieces, futures, strict=True):
                 results.append(future.result())
                 done += len(piece)
@@ -207,26 +213,32 @@ class PaperExperiment:
     validation_before: dict[str, NDArray[np.float64]]
     validation_after: dict[str, NDArray[np.float64]]
     method: str
+    extra: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    bounds: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    row_strategies: dict[str, str] = field(default_factory=dict)
+
+    def bound_of(self, row: str) -> NDArray[np.float64] | None:
+        """Per-trial Cramér–Rao bound of the mean absolute error of a row's pose sets."""
+        return self.bounds.get(self.row_strategies.get(row, row))
 
     @property
     def trials(self) -> int:
         return int(self.true_vectors.shape[0])
 
+    def _rows(self) -> dict[str, NDArray[np.float64]]:
+        return {"interior": self.interior_vectors, "boundary": self.boundary_vectors, **self.extra}
+
     def mean_abs_errors(self) -> dict[str, NDArray[np.float64]]:
-        """Per-trial mean absolute parameter error (mm) before and after calibration."""
-        return {
-            "before": np.mean(np.abs(self.nominal_vector - self.true_vectors), axis=1),
-            "interior": np.mean(np.abs(self.interior_vectors - self.true_vectors), axis=1),
-            "boundary": np.mean(np.abs(self.boundary_vectors - self.true_vectors), axis=1),
-        }
+        """Per-trial mean absolute parameter error (mm) before and after calibration, per row."""
+        out = {"before": np.mean(np.abs(self.nominal_vector - self.true_vectors), axis=1)}
+        for name, vectors in self._rows().items():
+            out[name] = np.mean(np.abs(vectors - self.true_vectors), axis=1)
+        return out
 
     @property
     def failures(self) -> dict[str, int]:
-        """Number of trials whose identification failed, per pose strategy."""
-        return {
-            "interior": int(np.sum(np.isnan(self.interior_vectors[:, 0]))),
-            "boundary": int(np.sum(np.isnan(self.boundary_vectors[:, 0]))),
-        }
+        """Number of trials whose identification failed, per row."""
+        return {name: int(np.sum(np.isnan(v[:, 0]))) for name, v in self._rows().items()}
 
 
 def random_machines(
@@ -249,6 +261,8 @@ def run_paper_experiment(
     method: str = "paper",
     jobs: int | None = 1,
     progress: Progress | None = None,
+    extra_rows: tuple[tuple[str, str, str], ...] = (),
+    selected_poses: NDArray[np.float64] | None = None,
 ) -> PaperExperiment:
     """Monte Carlo simulation of the seed paper's Table I and validation.
 
@@ -275,6 +289,14 @@ def run_paper_experiment(
     jobs : int or None
         Processes for the identifications (None: all cores).
     progress : callable(done, total), optional
+    extra_rows : tuple of (name, strategy, method)
+        Further rows on the same trials: ``strategy`` is ``"interior"`` or ``"boundary"``
+        (the very same data as those rows) or ``"selected"`` (the fixed
+        ``selected_poses`` measured with fresh noise in every trial); ``method`` any
+        estimator of :data:`hexcal.likelihood.ESTIMATORS` (``ml`` and ``gls`` assume
+        ``noise``).
+    selected_poses : ndarray, shape (n, 6), optional
+        Poses of the ``"selected"`` strategy (e.g. optimally selected ones).
 
     Returns
     -------
@@ -302,6 +324,20 @@ def run_paper_experiment(
         true_vectors = np.broadcast_to(true.to_vector(), (trials, N_BASE_PARAMETERS)).copy()
         true_gains = true.leg_gains
     machines = MachineBatch.from_vectors(true_vectors, true_gains)
+    strategies = {row[1] for row in extra_rows}
+    if not strategies <= {"interior", "boundary", "selected"}:
+        raise ValueError(f"unknown pose strategy in {sorted(strategies)}")
+    if "selected" in strategies:
+        if selected_poses is None:
+            raise ValueError("the 'selected' strategy needs selected_poses")
+        selected = np.asarray(selected_poses, dtype=float).reshape(-1, 6)
+        n_sel = selected.shape[0]
+        sel_leg = np.stack([noise.leg_errors(r, (n_sel,)) for r in rngs])
+        sel_pose = np.stack([noise.pose_errors(r, (n_sel,)) for r in rngs])
+        sel_cmd = np.broadcast_to(selected, (trials, n_sel, 6))
+        sel_readings = leg_readings(nominal, inverse_kinematics(nominal, sel_cmd))
+        sel_actual = machines.reach(sel_readings + sel_leg / machines.leg_gains[:, None], sel_cmd, euler)
+        sel_measured = sel_actual + sel_pose
 
     boundary = corners[pick[:, :n_poses]]
     targets = corners[pick[:, n_poses:]]
@@ -313,7 +349,7 @@ def run_paper_experiment(
     def datasets(sl: slice) -> list[Measurements]:
         return [Measurements(measured[t, sl], readings[t, sl]) for t in range(trials)]
 
-    total = 2 * trials
+    total = (2 + len(extra_rows)) * trials
     offset = [0]
 
     def step(done: int, _n: int) -> None:
@@ -323,6 +359,19 @@ def run_paper_experiment(
     interior_vectors = identify_batch(nominal, datasets(slice(0, n_poses)), method, jobs, step)
     offset[0] = trials
     boundary_vectors = identify_batch(nominal, datasets(slice(n_poses, 2 * n_poses)), method, jobs, step)
+    extra: dict[str, NDArray[np.float64]] = {}
+    for k, (name, strategy, row_method) in enumerate(extra_rows):
+        offset[0] = (2 + k) * trials
+        if strategy == "selected":
+            sets = [Measurements(sel_measured[t], sel_readings[t]) for t in range(trials)]
+        else:
+            sets = datasets(slice(0, n_poses) if strategy == "interior" else slice(n_poses, 2 * n_poses))
+        extra[name] = identify_batch(nominal, sets, row_method, jobs, step, noise)
+
+    pose_sets = {"interior": actual[:, :n_poses], "boundary": actual[:, n_poses:]}
+    if "selected" in strategies:
+        pose_sets["selected"] = sel_actual
+    bounds = _bounds(nominal, true, true_vectors, pose_sets, noise)
 
     # validation: the nominal controller, and the controller with the identified parameters
     before_readings = leg_readings(nominal, inverse_kinematics(nominal, targets))
@@ -347,4 +396,32 @@ def run_paper_experiment(
         validation_before={"position": pos_b, "orientation": ang_b},
         validation_after={"position": pos_a, "orientation": ang_a},
         method=method,
+        extra=extra,
+        bounds=bounds,
+        row_strategies={"interior": "interior", "boundary": "boundary"}
+        | {name: strategy for name, strategy, _ in extra_rows},
     )
+
+
+def _bounds(
+    nominal: Geometry,
+    true: Geometry | None,
+    true_vectors: NDArray[np.float64],
+    pose_sets: dict[str, NDArray[np.float64]],
+    noise: NoiseModel,
+) -> dict[str, NDArray[np.float64]]:
+    """Per-trial bound of the mean absolute error for each pose strategy (empty without noise)."""
+    if not np.any(noise.pose_cov()) and noise.sigmas[0] == 0:
+        return {}
+    out = {}
+    for name, sets in pose_sets.items():
+        if true is not None:
+            out[name] = bound_mean_abs_error(true, sets, noise)
+        else:  # a different machine in every trial
+            out[name] = np.concatenate(
+                [
+                    bound_mean_abs_error(nominal.with_vector(v), sets[t : t + 1], noise)
+                    for t, v in enumerate(true_vectors)
+                ]
+            )
+    return out
