@@ -83,7 +83,7 @@ def identify_ml(
     noise: NoiseModel | None = None,
     mask: ArrayLike | None = None,
     xtol: float = 1e-10,
-    max_nfev: int | None = None,
+    max_nfev: int | None = 500,
 ) -> IdentificationResult:
     """Maximum-likelihood identification with the poses as nuisance parameters.
 
@@ -98,6 +98,7 @@ def identify_ml(
         Parameters to vary; default joints and l0.
     xtol : float
     max_nfev : int, optional
+        Limit on evaluations (a well-posed fit needs about ten).
 
     Returns
     -------
@@ -173,6 +174,10 @@ def identify_ml(
         return proj.reshape(12 * m, -1)
 
     x0 = np.zeros(int(mask.sum()))
+    # identifiability of the pose set as measured (the inner solve would otherwise hide a
+    # rank deficiency behind the small pose freedom the noise model allows)
+    rot0, pos0 = _prepare(start, measured)
+    check_rank(_jacobian(full0, rot0, pos0, readings, "length")[:, mask] * scale, mask)
     check_rank(jac(x0), mask)
     rms_before = _rms(fun(x0))
     sol = least_squares(
