@@ -150,9 +150,15 @@ def test_seven_poses_are_too_few_with_gains_and_exactly_determined_without(
     data = simulate(nominal, true_machine, corner_poses[:7])
     with pytest.raises(IdentificationError, match="poses"):
         identify(nominal, data, mask=ALL_48)
-    # 42 equations for 42 parameters: no redundancy, hence no residual variance either
+    # 42 equations for 42 parameters: exactly determined (the smallest campaign of a pose-count
+    # study). The fit solves the equations exactly, though not necessarily at the true
+    # parameters (seven equations in seven unknowns per leg can have several roots); there is
+    # no residual to estimate the noise from, so the standard errors are NaN, not made up
+    result = identify(nominal, data, method="length")
+    assert result.leg_rms_after < 1e-9
+    assert np.all(np.isnan(result.stderr))
     with pytest.raises(IdentificationError, match="poses"):
-        identify(nominal, data)
+        identify(nominal, data.subset(np.arange(6)))
 
 
 def test_poses_without_rotation_are_rank_deficient(true_machine):

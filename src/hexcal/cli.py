@@ -305,6 +305,103 @@ def cmd_synthesize(args: argparse.Namespace) -> None:
     print(f"wrote {len(data)} simulated measurement(s) to {args.out}")
 
 
+def _int_list(text: str, option: str) -> list[int]:
+    try:
+        values = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise CommandError(f"{option}: {text!r} is not a comma-separated list of integers") from None
+    if not values or min(values) < 1:
+        raise CommandError(f"{option}: give positive integers, got {text!r}")
+    return values
+
+
+def cmd_simulate(args: argparse.Namespace) -> None:
+    from hexcal.likelihood import ESTIMATORS
+    from hexcal.study import STRATEGIES, format_study, run_study
+
+    nominal = _geometry(args.geometry)
+    true = None if args.true == "random" else _geometry(args.true)
+    if args.trials < 1:
+        raise CommandError(f"--trials must be at least 1, got {args.trials}")
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    bad = [m for m in methods if m not in ESTIMATORS]
+    if bad or not methods:
+        raise CommandError(
+            f"--methods: unknown {', '.join(bad) or 'empty list'}; choose from {', '.join(ESTIMATORS)}"
+        )
+    names = [s.strip() for s in args.strategies.split(",") if s.strip()]
+    unknown = [s for s in names if s not in STRATEGIES]
+    if unknown or not names:
+        raise CommandError(
+            f"--strategies: unknown {', '.join(unknown) or 'empty list'}; choose from {', '.join(STRATEGIES)}"
+        )
+    counts = _int_list(args.poses, "--poses")
+    base = _noise(args)
+    try:
+        levels = [float(v) for v in args.noise_levels.split(",") if v.strip()]
+    except ValueError:
+        raise CommandError(f"--noise-levels: {args.noise_levels!r} is not a list of numbers") from None
+    if not levels or any(not np.isfinite(v) or v < 0 for v in levels):
+        raise CommandError(f"--noise-levels: give finite factors >= 0, got {args.noise_levels!r}")
+    noises = {
+        f"x{v:g}": NoiseModel(
+            base.leg * v,
+            base.position * v,
+            base.orientation * v,
+            base.distribution,
+            None if base.pose_covariance is None else base.pose_covariance * v**2,
+        )
+        for v in levels
+    }
+    out = Path(args.out) if args.out else None
+    if out is not None and out.exists() and not out.is_dir():
+        raise CommandError(f"--out {out}: exists and is not a folder")
+    cells = run_study(
+        nominal,
+        true,
+        methods,
+        {s: STRATEGIES[s] for s in names},
+        counts,
+        noises,
+        args.trials,
+        args.seed,
+        jobs=args.jobs,
+        progress=_Progress("identifications", args.quiet),
+    )
+    print(format_study(cells))
+    if out is not None:
+        from hexcal.io import write_table
+        from hexcal.plotting import plot_study
+
+        out.mkdir(parents=True, exist_ok=True)
+        rows = [c.row() for c in cells]
+        with atomic_write(out / "study.json") as fh:
+            json.dump(
+                {"trials": args.trials, "seed": args.seed, "noise": base.describe(), "cells": rows},
+                fh,
+                indent=2,
+            )
+            fh.write("\n")
+        numeric = [
+            "poses",
+            "error_mean",
+            "error_std",
+            "bound",
+            "efficiency",
+            "position_rms",
+            "orientation_rms",
+        ]
+        write_table(
+            out / "study.csv",
+            numeric,
+            np.array([[r[k] for k in numeric] for r in rows], dtype=float),
+            ids=[f"{r['strategy']}/{r['noise']}/{r['method']}" for r in rows],
+            comment="id: strategy/noise/method; mm and rad",
+        )
+        plot_study(cells, out / "study.png")
+        print(f"wrote {out / 'study.json'}, study.csv and study.png")
+
+
 class _Progress:
     """Progress lines on stderr, about every 10 % (and at the end)."""
 
@@ -483,6 +580,25 @@ def build_parser() -> argparse.ArgumentParser:
     from hexcal.cli_plan import register
 
     register(sub, geometry_help)
+
+    p = sub.add_parser("simulate", help="Monte Carlo study of calibration campaigns")
+    p.add_argument("--geometry", default="paper-hmt", help=f"nominal {geometry_help}")
+    p.add_argument(
+        "--true", default="paper-hmt-true", help="the real machine, or 'random' (nominal + U(±5 mm))"
+    )
+    p.add_argument(
+        "--methods", default="paper,ml", help="estimators, comma-separated: ml, gls, length, paper"
+    )
+    p.add_argument("--strategies", default="corners,interior", help="pose strategies: corners, interior")
+    p.add_argument("--poses", default="15", help="numbers of poses, comma-separated, e.g. 7,15,30")
+    _noise_options(p)
+    p.add_argument("--noise-levels", default="1", help="factors applied to the noise, e.g. 0.5,1,2")
+    p.add_argument("--trials", type=int, default=100)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--jobs", type=int, default=None, help="processes (default: all cores)")
+    p.add_argument("--out", help="folder for study.json, study.csv and study.png")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("paper", help="reproduce the seed paper's Table I by Monte Carlo")
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {geometry_help}")

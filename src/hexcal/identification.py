@@ -385,7 +385,7 @@ def check_data_size(measurements: Measurements, mask: NDArray[np.bool_]) -> None
             f"{m} poses cannot determine the parameters: at least {min_poses} are needed "
             f"(each leg has {min_poses} parameters and gets one equation per pose)"
         )
-    if 6 * m <= n_vary:
+    if 6 * m < n_vary:
         raise IdentificationError(f"{6 * m} equations for {n_vary} parameters: measure more poses")
 
 
@@ -429,7 +429,8 @@ def finish_result(
             f"combination: {_combination(vt[-1], mask)})"
         )
     dof = residuals.size - n_vary if dof is None else dof
-    s2 = float(residuals @ residuals) / dof
+    # an exactly determined fit (dof 0) has no residual to estimate the noise from
+    s2 = float(residuals @ residuals) / dof if dof > 0 else float("nan")
     vs = vt.T / sv
     cov = (vs @ vs.T) / np.outer(norms, norms) * s2 * np.outer(scale, scale)
     stderr = np.sqrt(np.diag(cov))

@@ -60,3 +60,37 @@ def plot_validation_errors(experiment: PaperExperiment, path: str | os.PathLike[
     axes[0].legend()
     fig.suptitle("Pose errors at the validation corners (first trial)")
     _save(fig, path)
+
+
+def plot_study(cells: list, path: str | os.PathLike[str]) -> None:
+    """Mean absolute parameter error against the number of poses, per strategy and method.
+
+    Dashed lines are the Cramér–Rao bounds of the same pose strategies (one per strategy
+    and noise level). ``cells`` are :class:`hexcal.study.StudyCell` objects.
+    """
+    rows = [c.row() for c in cells]
+    fig, ax = plt.subplots(figsize=(8, 5))
+    keys = sorted({(r["strategy"], r["noise"], r["method"]) for r in rows})
+    for strategy, noise, method in keys:
+        sel = sorted(
+            (r for r in rows if (r["strategy"], r["noise"], r["method"]) == (strategy, noise, method)),
+            key=lambda r: r["poses"],
+        )
+        ax.plot(
+            [r["poses"] for r in sel],
+            [r["error_mean"] for r in sel],
+            "o-",
+            label=f"{strategy}, {method}, noise {noise}",
+        )
+    for strategy, noise in sorted({(r["strategy"], r["noise"]) for r in rows}):
+        sel = sorted(
+            (r for r in rows if (r["strategy"], r["noise"]) == (strategy, noise)), key=lambda r: r["poses"]
+        )
+        ax.plot([r["poses"] for r in sel], [r["bound"] for r in sel], "k--", lw=0.8, alpha=0.6)
+    ax.set_xlabel("number of measurement poses")
+    ax.set_ylabel("mean absolute parameter error (mm)")
+    ax.set_yscale("log")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.set_title("Calibration campaigns (dashed: Cramér–Rao bounds)")
+    ax.legend(fontsize=7)
+    _save(fig, path)
