@@ -210,9 +210,7 @@ def observability_indices(
     sv = np.linalg.svd(jac * scales, compute_uv=False)
     sv = np.concatenate([sv, np.zeros(jac.shape[1] - sv.size)])
     values = indices_from_singular_values(sv)
-    return ObservabilityIndices(
-        singular_values=sv, rank=numerical_rank(jac), scaling=scaling, **values
-    )
+    return ObservabilityIndices(singular_values=sv, rank=numerical_rank(jac), scaling=scaling, **values)
 
 
 # -- identifiability ----------------------------------------------------------------------
@@ -240,7 +238,8 @@ def null_space(jacobian: ArrayLike, rtol: float = RANK_RTOL) -> NDArray[np.float
     pivots = np.sort(piv[: basis.shape[0]])
     rref = np.linalg.solve(basis[:, pivots], basis)
     rref[np.abs(rref) < 1e-9 * np.max(np.abs(rref))] = 0.0
-    return rref
+    first = np.argmax(rref != 0, axis=1)
+    return rref[np.argsort(first, kind="stable")]
 
 
 def format_combination(vector: ArrayLike, names: tuple[str, ...] | list[str], digits: int = 3) -> str:
@@ -257,7 +256,9 @@ def format_combination(vector: ArrayLike, names: tuple[str, ...] | list[str], di
         coef = vec[k]
         sign = "-" if coef < 0 else "+"
         mag = abs(coef)
-        term = names[k] if np.isclose(mag, 1.0, rtol=0, atol=10.0**-digits) else f"{mag:.{digits}g}·{names[k]}"
+        term = (
+            names[k] if np.isclose(mag, 1.0, rtol=0, atol=10.0**-digits) else f"{mag:.{digits}g}·{names[k]}"
+        )
         parts.append(f"{sign} {term}")
     text = " ".join(parts)
     return text[2:] if text.startswith("+ ") else "-" + text[2:]
@@ -403,8 +404,8 @@ def pose_error_map(
     batch = poses.shape[:-1]
     flat = poses.reshape(-1, 6)
     a = planning_jacobian(geometry, flat, mask).reshape(flat.shape[0], 6, -1)
-    jac = pose_jacobian(geometry, flat)
-    out = -np.linalg.solve(jac, a)
+    jac_inv = np.linalg.inv(pose_jacobian(geometry, flat))
+    out = -np.matmul(jac_inv, a)
     return out.reshape(batch + out.shape[-2:])
 
 
@@ -548,7 +549,11 @@ def analyse_poses(
     poses = as_poses(poses).reshape(-1, 6)
     names = parameter_names(mask)
     scale = PARAMETER_SCALE[mask]
-    jac = whitened_jacobian(geometry, poses, noise, mask) if weighted else planning_jacobian(geometry, poses, mask)
+    jac = (
+        whitened_jacobian(geometry, poses, noise, mask)
+        if weighted
+        else planning_jacobian(geometry, poses, mask)
+    )
     indices = observability_indices(jac, scaling, scale)
     lost = null_space(jac)
     not_identifiable = np.any(np.abs(lost) > 0, axis=0) if lost.size else np.zeros(len(names), dtype=bool)
