@@ -172,12 +172,9 @@ def _noise(args: argparse.Namespace) -> NoiseModel:
 
 
 def cmd_identify(args: argparse.Namespace) -> None:
-    import dataclasses
-
     from hexcal.geometry import select_parameters
-    from hexcal.identification import identify
     from hexcal.io import read_measurements
-    from hexcal.likelihood import estimate
+    from hexcal.likelihood import estimate, identify_gls
     from hexcal.outliers import identify_robust, pose_diagnostics
     from hexcal.report import format_identification_report, identification_summary
 
@@ -190,20 +187,18 @@ def cmd_identify(args: argparse.Namespace) -> None:
     except ValueError as exc:
         raise CommandError(str(exc)) from None
     outliers: tuple[str, ...] = ()
-    # outliers are found on least-squares fits (their deletion diagnostics are exact for LS);
-    # the chosen estimator then runs on the poses kept
-    check_method = "paper" if args.method == "paper" else "length"
+    # poses are checked on the generalised least-squares fit, whose whitened deletion
+    # statistic follows a known F distribution under the noise model; the chosen
+    # estimator then runs on the poses kept
     if args.robust:
-        robust = identify_robust(nominal, data, method=check_method, mask=mask)
+        robust = identify_robust(nominal, data, mask=mask, noise=noise)
         outliers, used, diag = robust.outliers, data.subset(robust.kept), robust.diagnostics
     else:
         used = data
     result = estimate(nominal, used, args.method, mask, noise)
     if not args.robust:
-        ls = result if args.method == check_method else identify(result.geometry, used, check_method, mask)
-        if ls is not result:
-            ls = dataclasses.replace(ls, start=nominal)
-        diag = pose_diagnostics(ls, used, mask)
+        gls = result if args.method == "gls" else identify_gls(nominal, used, noise, mask)
+        diag = pose_diagnostics(gls, used, mask, noise=noise)
     flagged = tuple(used.ids[k] for k in diag.flagged)
     text = format_identification_report(result, outliers, flagged)
     calibration = result.calibration_metadata()

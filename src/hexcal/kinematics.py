@@ -61,7 +61,7 @@ def leg_vectors(geometry: Geometry, poses: ArrayLike) -> NDArray[np.float64]:
     return legs
 
 
-_IK_CHUNK = 16384  # poses per block: keeps the intermediates in cache
+_IK_CHUNK = 2048  # poses per block: temporaries stay below the allocator's mmap threshold (128 KiB)
 
 
 def _squared_length_coefficients(geometry: Geometry) -> NDArray[np.float64]:
@@ -207,7 +207,12 @@ def _solve_steps(jac: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[
         return np.einsum("...ij,...j->...i", np.linalg.pinv(jac), rhs)
 
 
-_FK_CHUNK = 4096  # poses per block: keeps the Newton iterates in cache
+def _rows(joints: NDArray[np.float64], index: slice | NDArray[np.intp]) -> NDArray[np.float64]:
+    """The joints of some poses: all of them for one machine ``(6, 3)``, else ``joints[index]``."""
+    return joints if joints.ndim == 2 else joints[index]
+
+
+_FK_CHUNK = 2048  # poses per block: keeps the Newton iterates in cache
 
 
 def _newton_block(
@@ -239,7 +244,7 @@ def _newton_block(
         norm0 = np.linalg.norm(err, axis=-1)
         alpha = np.ones(active.size)
         new_pose = pose[active] - step
-        new_len, new_jac = pose_jacobian_from_arrays(u[active], s[active], new_pose, euler)
+        new_len, new_jac = pose_jacobian_from_arrays(_rows(u, active), _rows(s, active), new_pose, euler)
         new_err = new_len - target[active]
         # damping: halve the Newton step of poses whose residual grew
         for _halving in range(20):
@@ -249,7 +254,8 @@ def _newton_block(
             idx = np.flatnonzero(worse)
             alpha[idx] *= 0.5
             new_pose[idx] = pose[active[idx]] - alpha[idx, None] * step[idx]
-            ln, jn = pose_jacobian_from_arrays(u[active[idx]], s[active[idx]], new_pose[idx], euler)
+            sub = active[idx]
+            ln, jn = pose_jacobian_from_arrays(_rows(u, sub), _rows(s, sub), new_pose[idx], euler)
             new_len[idx], new_jac[idx] = ln, jn
             new_err[idx] = ln - target[active[idx]]
         pose[active] = new_pose
@@ -282,8 +288,11 @@ def forward_kinematics_from_arrays(
     s = np.asarray(platform_joints, dtype=float)
     batch = np.broadcast_shapes(lengths.shape[:-1], u.shape[:-2], s.shape[:-2], np.shape(guess)[:-1])
     target = np.broadcast_to(lengths, batch + (6,)).reshape(-1, 6)
-    u = np.broadcast_to(u, batch + (6, 3)).reshape(-1, 6, 3)
-    s = np.broadcast_to(s, batch + (6, 3)).reshape(-1, 6, 3)
+    # one machine for all poses: keep its joints unbatched (no per-pose copies)
+    single = u.ndim == 2 and s.ndim == 2
+    if not single:
+        u = np.broadcast_to(u, batch + (6, 3)).reshape(-1, 6, 3)
+        s = np.broadcast_to(s, batch + (6, 3)).reshape(-1, 6, 3)
     pose = np.array(np.broadcast_to(as_poses(guess, "guess"), batch + (6,)).reshape(-1, 6))
     n = pose.shape[0]
     converged = np.zeros(n, dtype=bool)
@@ -292,7 +301,7 @@ def forward_kinematics_from_arrays(
     for start in range(0, n, _FK_CHUNK):
         blk = slice(start, start + _FK_CHUNK)
         converged[blk], iterations[blk], residual[blk] = _newton_block(
-            u[blk], s[blk], target[blk], pose[blk], euler, tol, max_iter
+            _rows(u, blk), _rows(s, blk), target[blk], pose[blk], euler, tol, max_iter
         )
     out = np.where(converged[:, None], pose, np.nan)
     return ForwardResult(

@@ -180,8 +180,13 @@ def identify_ml(
     check_rank(_jacobian(full0, rot0, pos0, readings, "length")[:, mask] * scale, mask)
     check_rank(jac(x0), mask)
     rms_before = _rms(fun(x0))
+    # start the outer iteration from the GLS estimate: the same estimator to first order,
+    # five times cheaper, so LM needs only a couple of full likelihood iterations
+    gls = identify_gls(start, measurements, noise, mask, rounds=1)
+    x_start = (gls.values - base) / scale
+    state["poses"] = measured.copy()
     sol = least_squares(
-        fun, x0, jac=jac, method="lm", x_scale=1.0, xtol=xtol, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev
+        fun, x_start, jac=jac, method="lm", x_scale=1.0, xtol=xtol, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev
     )
     if sol.status <= 0 or not np.all(np.isfinite(sol.x)):
         raise IdentificationError(f"the solver did not converge: {sol.message}")

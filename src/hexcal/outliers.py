@@ -7,11 +7,22 @@ and the fit is nearly linear at its solution):
 
     ΔSSE_j = r_jᵀ (I - H_jj)⁻¹ r_j,      F_j = (ΔSSE_j / 6) / ((SSE - ΔSSE_j) / (n - p - 6))
 
-with ``H_jj`` the 6×6 diagonal block of ``H = J (JᵀJ)⁻¹ Jᵀ``. Under Gaussian noise and
-no outlier, ``F_j`` follows an F(6, n - p - 6) distribution; a pose is flagged when
-``F_j`` exceeds its ``1 - alpha / m`` quantile (a Bonferroni bound over the ``m``
-poses). This is the group form of the externally studentised residual (Cook &
-Weisberg, *Residuals and Influence in Regression*, 1982, ch. 2.2).
+with ``H_jj`` the 6×6 diagonal block of ``H = J (JᵀJ)⁻¹ Jᵀ``. This is the group form of
+the externally studentised residual (Cook & Weisberg, *Residuals and Influence in
+Regression*, 1982, ch. 2.2). A pose is flagged when ``F_j`` exceeds the ``1 - alpha / m``
+quantile of its null distribution (a Bonferroni bound over the ``m`` poses):
+
+- **with a noise model** (the default of ``hexcal identify``), residuals and Jacobian are
+  whitened by the covariance ``C_j`` of each pose's six residuals
+  (:func:`hexcal.observability.residual_covariances`; the pose measurement error is
+  shared by the six legs) and the fit is generalised least squares. The six whitened
+  residuals are then independent with equal variance and ``F_j`` follows F(6, n - p - 6)
+  under Gaussian noise, whatever the scale of the noise;
+- **without a noise model**, on a plain least-squares fit, the six residuals of a pose
+  may be correlated in an unknown way. The threshold is then the quantile of F(1, n - p - 6),
+  the distribution of ``F_j`` when the six residuals are perfectly correlated: the
+  heaviest tail possible, so the false alarm rate stays below ``alpha`` however the noise
+  is shared, at the price of detecting only larger errors.
 
 The robust identification removes the most significant pose, refits, and repeats
 until no pose is flagged; removing a pose gives exactly the fit on the remaining
@@ -35,10 +46,13 @@ from hexcal.identification import (
     _jacobian,
     _prepare,
     _residuals,
+    check_data_size,
     identification_jacobian,
     identify,
 )
-from hexcal.measurement import Measurements
+from hexcal.likelihood import LEG_SIGMA_FLOOR, identify_gls
+from hexcal.measurement import Measurements, NoiseModel
+from hexcal.observability import residual_covariances, whitening
 
 #: Family-wise false alarm rate of the outlier test over all poses of a data set.
 DEFAULT_ALPHA = 0.01
@@ -83,16 +97,32 @@ def pose_diagnostics(
     measurements: Measurements,
     mask: ArrayLike,
     alpha: float = DEFAULT_ALPHA,
+    noise: NoiseModel | None = None,
 ) -> PoseDiagnostics:
-    """Outlier statistics of every pose of a fit (see the module docstring)."""
+    """Outlier statistics of every pose of a fit (see the module docstring).
+
+    With ``noise``, ``result`` should be the generalised least-squares fit
+    (:func:`hexcal.likelihood.identify_gls`) for the statistic to be exact; without, a
+    least-squares fit of its ``method``.
+    """
     mask = np.asarray(mask, dtype=bool)
-    jac = identification_jacobian(result.geometry, measurements, result.method, mask)
     m, p = len(measurements), int(mask.sum())
+    if noise is None:
+        method = result.method if result.method in ("length", "paper") else "length"
+        jac = identification_jacobian(result.geometry, measurements, method, mask)
+        rot, pos = _prepare(result.geometry, measurements.poses)
+        r = _residuals(result.geometry.to_vector(gains=True), rot, pos, measurements.readings, method)
+    else:
+        w = whitening(residual_covariances(result.geometry, measurements.poses, _floored(noise)))
+        a = identification_jacobian(result.geometry, measurements, "length", mask).reshape(m, 6, p)
+        jac = np.einsum("mij,mjk->mik", w, a).reshape(6 * m, p)
+        rot, pos = _prepare(result.geometry, measurements.poses)
+        raw = _residuals(result.geometry.to_vector(gains=True), rot, pos, measurements.readings, "length")
+        r = np.einsum("mij,mj->mi", w, raw)
     q, _ = np.linalg.qr(jac / np.linalg.norm(jac, axis=0))
     qb = q.reshape(m, 6, p)
     hat = np.einsum("mik,mjk->mij", qb, qb)  # (m, 6, 6) diagonal blocks of H
     leverage = np.linalg.eigvalsh(hat)[:, -1]
-    r = result.residuals
     sse = float(np.sum(r**2))
     dof = 6 * m - p - 6
     ok = leverage < MAX_LEVERAGE
@@ -102,8 +132,22 @@ def pose_diagnostics(
         delta = np.einsum("mi,mi->m", r[ok], np.linalg.solve(eye - hat[ok], r[ok][..., None])[..., 0])
         stat[ok] = (delta / 6) / (np.maximum(sse - delta, 1e-300) / dof)
     # scipy.special, not scipy.stats: the latter costs half a second of import time
-    threshold = float(fdtri(1, dof, 1 - alpha / m)) if dof > 0 else np.inf
+    if dof <= 0:
+        threshold = np.inf
+    elif noise is None:
+        threshold = float(fdtri(1, dof, 1 - alpha / m))
+    else:
+        threshold = float(fdtri(6, dof, 1 - alpha / m))
     return PoseDiagnostics(stat, threshold, leverage)
+
+
+def _floored(noise: NoiseModel) -> NoiseModel:
+    """The noise model with a leg σ of at least LEG_SIGMA_FLOOR (keeps C_j invertible)."""
+    return NoiseModel(
+        leg=max(noise.sigmas[0], LEG_SIGMA_FLOOR),
+        distribution="normal",
+        pose_covariance=noise.pose_cov(),
+    )
 
 
 #: Screening: a pose whose largest leg residual under the robust fit exceeds this many
@@ -178,6 +222,7 @@ def identify_robust(
     mask: ArrayLike | None = None,
     alpha: float = DEFAULT_ALPHA,
     max_fraction: float = 0.25,
+    noise: NoiseModel | None = None,
 ) -> RobustResult:
     """Identify without the outlying poses.
 
@@ -199,8 +244,13 @@ def identify_robust(
     max_fraction : float
         At most this fraction of the poses may be removed; more is an error (the data
         are not a calibration with a few gross errors).
+    noise : NoiseModel, optional
+        With a noise model the fits are generalised least squares and the test is the
+        exact F(6, dof) one; without, least squares of ``method`` with the conservative
+        threshold (module docstring).
     """
     mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
+    check_data_size(measurements, mask)
     m = len(measurements)
     limit = int(np.floor(max_fraction * m))
     keep = np.ones(m, dtype=bool)
@@ -212,8 +262,11 @@ def identify_robust(
 
     def fit(sel: NDArray[np.bool_]) -> tuple[IdentificationResult, PoseDiagnostics]:
         sub = measurements.subset(sel)
-        res = identify(start, sub, method=method, mask=mask)
-        return res, pose_diagnostics(res, sub, mask, alpha)
+        if noise is None:
+            res = identify(start, sub, method=method, mask=mask)
+        else:
+            res = identify_gls(start, sub, noise, mask)
+        return res, pose_diagnostics(res, sub, mask, alpha, noise)
 
     result, diag = fit(keep)
     while diag.flagged.size:

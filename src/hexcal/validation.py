@@ -103,7 +103,8 @@ class Compensation:
         Whether the lengths are within the geometry's leg length limits.
     corrected_poses : ndarray, shape (m, 6) or None
         Poses to command to a controller using the nominal geometry so that it
-        produces ``readings`` (when a nominal geometry was given).
+        produces ``readings`` (when a nominal geometry was given; NaN for infeasible
+        targets).
     """
 
     ids: tuple[str, ...]
@@ -153,9 +154,11 @@ def compensate(
         feasible = np.all((lengths >= lo - 1e-9) & (lengths <= hi + 1e-9), axis=1)
     corrected = None
     if nominal is not None:
-        fk = forward_kinematics(nominal, leg_lengths(nominal, readings), guess=targets)
+        # only for the reachable targets: an unreachable one has no command to correct
+        corrected = np.full_like(targets, np.nan)
+        fk = forward_kinematics(nominal, leg_lengths(nominal, readings[feasible]), guess=targets[feasible])
         if not fk.all_converged:
-            bad = [ids[k] for k in np.flatnonzero(~fk.converged)]
+            bad = [ids[k] for k in np.flatnonzero(feasible)[~fk.converged]]
             raise ValidationError(f"no corrected pose found for target(s) {', '.join(bad[:20])}")
-        corrected = fk.poses
+        corrected[feasible] = fk.poses
     return Compensation(ids, targets, lengths, readings, feasible, corrected)
