@@ -45,7 +45,7 @@ from hexcal.kinematics import (  # noqa: E402
 from hexcal.measurement import Measurements, NoiseModel  # noqa: E402
 from hexcal.presets import preset  # noqa: E402
 
-BENCHMARKS = ("ik", "fk", "identify", "cli")
+BENCHMARKS = ("ik", "fk", "identify", "ml", "identify-cli", "cli")
 SEED = 20240601
 
 # Issue targets.
@@ -53,6 +53,8 @@ IK_TARGET = 3_000_000.0  # poses/s, one core
 FK_TARGET = 1.0  # s for 100,000 poses
 IDENTIFY_TARGET = 5e-3  # s per identification (15 poses, 42 parameters)
 CLI_TARGET = 30.0  # s for `hexcal paper --trials 1000`
+ML_TARGETS = {15: 20e-3, 1000: 1.0}  # s per maximum-likelihood identification (issue 5)
+IDENTIFY_CLI_TARGETS = {100: 1.0, 10_000: 10.0}  # s wall for `hexcal identify` incl. start-up (issue 3)
 
 IK_SIZES = (1, 10, 1000, 10_000, 1_000_000)
 IK_SIZES_QUICK = (1, 10, 1000, 10_000, 100_000)
@@ -302,6 +304,99 @@ def bench_identify(report: Report, nominal: Geometry, quick: bool) -> None:
         )
 
 
+def bench_ml(report: Report, nominal: Geometry, quick: bool) -> None:
+    """Maximum-likelihood identification (issue 5): 15 corners, and 1000 random workspace poses."""
+    from hexcal.likelihood import identify_ml
+    from hexcal.simulation import simulate_measurements
+
+    header("maximum likelihood: identify_ml(paper-hmt, noisy data of paper-hmt-true), 42 parameters")
+    true = preset("paper-hmt-true")
+    noise = NoiseModel()
+    rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(SEED + 1).spawn(30)]
+    sets15 = [simulated_corner_data(nominal, true, 15, r, noise) for r in rngs[: 10 if quick else 30]]
+    identify_ml(nominal, sets15[0], noise)
+    samples = []
+    with CpuShare() as cpu:
+        for data in sets15:
+            start = time.perf_counter()
+            identify_ml(nominal, data, noise)
+            samples.append(time.perf_counter() - start)
+    med = float(np.median(samples))
+    report.figure(
+        "ml.15_poses",
+        fmt_time(med),
+        "<= 20 ms",
+        med <= ML_TARGETS[15],
+        f"(median of {len(samples)} data sets; cpu/wall {cpu.share:.2f})",
+        full_size=len(samples) >= 30,
+    )
+    n = 200 if quick else 1000
+    poses = random_poses(nominal, n, rngs[0])
+    data = simulate_measurements(nominal, true, poses, noise, rngs[1])
+    samples = []
+    with CpuShare() as cpu:
+        for _ in range(3):
+            start = time.perf_counter()
+            result = identify_ml(nominal, data, noise)
+            samples.append(time.perf_counter() - start)
+    med = float(np.median(samples))
+    report.figure(
+        "ml.1000_poses",
+        fmt_time(med),
+        "<= 1 s",
+        med <= ML_TARGETS[1000],
+        f"({n} poses, median of 3; {result.njev} iterations; cpu/wall {cpu.share:.2f})",
+        full_size=not quick,
+    )
+
+
+def bench_identify_cli(report: Report, nominal: Geometry, quick: bool) -> None:
+    """`hexcal identify` wall time including start-up (issue 3), on 100 and 10,000 poses."""
+    import tempfile
+
+    from hexcal.io import write_measurements
+    from hexcal.simulation import simulate_measurements
+
+    exe = hexcal_executable()
+    header(f"command line: {exe} identify (default method) on simulated measurement files")
+    true = preset("paper-hmt-true")
+    rng = np.random.default_rng(SEED + 2)
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in (100, 1000 if quick else 10_000):
+            data = simulate_measurements(nominal, true, random_poses(nominal, n, rng), NoiseModel(), rng)
+            path = Path(tmp) / f"m{n}.csv"
+            write_measurements(path, data, nominal.euler)
+            cmd = [
+                str(exe),
+                "identify",
+                "--geometry",
+                "paper-hmt",
+                "--data",
+                str(path),
+                "--out",
+                str(Path(tmp) / f"c{n}.yaml"),
+            ]
+            walls = []
+            for _ in range(3 if n <= 1000 else 1):
+                start = time.perf_counter()
+                proc = subprocess.run(cmd, env=CALLER_ENV, capture_output=True, text=True, check=False)
+                walls.append(time.perf_counter() - start)
+                if proc.returncode != 0:
+                    report.error(f"identify_cli.{n}", proc.stderr.strip().splitlines()[-1])
+                    break
+            else:
+                wall = float(np.median(walls))
+                target = IDENTIFY_CLI_TARGETS.get(n)
+                report.figure(
+                    f"identify_cli.{n}_poses",
+                    f"{wall:.2f} s",
+                    f"<= {target:g} s" if target else "-",
+                    target is not None and wall <= target,
+                    f"(median of {len(walls)} runs, start-up included)",
+                    full_size=target is not None,
+                )
+
+
 def hexcal_executable() -> Path:
     # next to the interpreter (not resolved: .venv/bin/python is a symlink)
     return Path(sys.executable).with_name("hexcal")
@@ -384,6 +479,10 @@ def main(argv: list[str] | None = None) -> int:
         bench_fk(report, nominal, args.quick)
     if "identify" in selected:
         bench_identify(report, nominal, args.quick)
+    if "ml" in selected:
+        bench_ml(report, nominal, args.quick)
+    if "identify-cli" in selected:
+        bench_identify_cli(report, nominal, args.quick)
     if "cli" in selected:
         bench_cli(report, args.quick)
     counts = {s: report.status.count(s) for s in ("PASS", "MISS", "ERROR")}
