@@ -245,12 +245,13 @@ def null_space(jacobian: ArrayLike, rtol: float = RANK_RTOL) -> NDArray[np.float
 def format_combination(vector: ArrayLike, names: tuple[str, ...] | list[str], digits: int = 3) -> str:
     """A parameter combination as text, e.g. ``u1.x + s1.x`` or ``l0_1 - 0.5·g1``.
 
-    The vector is divided by its entry of largest magnitude (the first such) and its
-    terms are listed in parameter order.
+    The vector is scaled so that its largest entry has magnitude 1 and its first term
+    (in parameter order) is positive; the direction and its negative are the same lost
+    combination.
     """
     vec = np.asarray(vector, dtype=float)
-    big = vec[np.argmax(np.abs(vec))]
-    vec = vec / big
+    vec = vec / np.max(np.abs(vec))
+    vec = -vec if vec[np.flatnonzero(np.abs(vec) > 10.0 ** (-digits - 1))[0]] < 0 else vec
     parts: list[str] = []
     for k in np.flatnonzero(np.abs(vec) > 10.0 ** (-digits - 1)):
         coef = vec[k]
@@ -260,8 +261,7 @@ def format_combination(vector: ArrayLike, names: tuple[str, ...] | list[str], di
             names[k] if np.isclose(mag, 1.0, rtol=0, atol=10.0**-digits) else f"{mag:.{digits}g}·{names[k]}"
         )
         parts.append(f"{sign} {term}")
-    text = " ".join(parts)
-    return text[2:] if text.startswith("+ ") else "-" + text[2:]
+    return " ".join(parts)[2:]
 
 
 def unidentifiable_combinations(
