@@ -48,36 +48,41 @@ def _rotate_columns(m: NDArray[np.float64], axis: str, angle: NDArray[np.float64
     m[:, j] = c * col_j - s * col_i
 
 
-def _rotate_rows(m: NDArray[np.float64], axis: str, angle: NDArray[np.float64]) -> None:
-    """In place ``m <- E(axis, angle) @ m`` for matrices laid out as ``(3, 3, N)``."""
-    k = "xyz".index(axis.lower())
-    i, j = (k + 1) % 3, (k + 2) % 3
-    c, s = np.cos(angle), np.sin(angle)
-    row_i, row_j = m[i].copy(), m[j]
-    m[i] = c * row_i - s * row_j
-    m[j] = s * row_i + c * row_j
-
-
 def _identity_t(n: int) -> NDArray[np.float64]:
     m = np.zeros((3, 3, n))
     m[0, 0] = m[1, 1] = m[2, 2] = 1.0
     return m
 
 
+def rotation_and_axes_t(
+    angles_t: NDArray[np.float64], euler: str = DEFAULT_EULER, axes: bool = True
+) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+    """Rotation matrices and the world axes of the elementary rotations, in one pass.
+
+    Layout ``(3, 3, N)`` from angles ``(3, N)``; ``axes[k]`` is the base-frame axis
+    ``w_k`` of :func:`euler_axes` (component, N). Both orders are built by
+    right-multiplying elementary rotations: ``E_a E_b E_c`` (intrinsic) or ``E_c E_b E_a``
+    (extrinsic); before each factor the current matrix's column of that factor's axis
+    is the factor's world axis.
+    """
+    n = angles_t.shape[1]
+    m = _identity_t(n)
+    out = np.empty((3, 3, n)) if axes else None
+    order = (0, 1, 2) if euler.isupper() else (2, 1, 0)
+    for k in order:
+        if out is not None:
+            out[k] = m[:, "xyz".index(euler[k].lower())]
+        _rotate_columns(m, euler[k], angles_t[k])
+    return m, out
+
+
 def rotation_matrices_t(angles_t: NDArray[np.float64], euler: str = DEFAULT_EULER) -> NDArray[np.float64]:
     """Rotation matrices in the transposed layout ``(3, 3, N)`` from angles ``(3, N)``.
 
     The hot-path form of :func:`rotation_matrices`: each matrix entry is a contiguous
-    array, and each elementary rotation touches only the two rows or columns it mixes.
+    array, and each elementary rotation touches only the two columns it mixes.
     """
-    m = _identity_t(angles_t.shape[1])
-    if euler.isupper():  # intrinsic: R = E_a E_b E_c
-        for k in range(3):
-            _rotate_columns(m, euler[k], angles_t[k])
-    else:  # extrinsic: R = E_c E_b E_a
-        for k in range(3):
-            _rotate_rows(m, euler[k], angles_t[k])
-    return m
+    return rotation_and_axes_t(angles_t, euler, axes=False)[0]
 
 
 def rotation_matrices(angles: ArrayLike, euler: str = DEFAULT_EULER) -> NDArray[np.float64]:
@@ -130,22 +135,7 @@ def euler_axes(angles: ArrayLike, euler: str = DEFAULT_EULER) -> NDArray[np.floa
     angles = np.asarray(angles, dtype=float)
     batch = angles.shape[:-1]
     flat_t = angles.reshape(-1, 3).T
-    n = flat_t.shape[1]
-    col = ["xyz".index(ax.lower()) for ax in euler]
-    out = np.zeros((3, 3, n))  # (k, component, N)
-    m = _identity_t(n)
-    if euler.isupper():  # w1 = e_a, w2 = E_a e_b, w3 = E_a E_b e_c
-        out[0, col[0]] = 1.0
-        _rotate_columns(m, euler[0], flat_t[0])
-        out[1] = m[:, col[1]]
-        _rotate_columns(m, euler[1], flat_t[1])
-        out[2] = m[:, col[2]]
-    else:  # w3 = e_c, w2 = E_c e_b, w1 = E_c E_b e_a
-        out[2, col[2]] = 1.0
-        _rotate_columns(m, euler[2], flat_t[2])
-        out[1] = m[:, col[1]]
-        _rotate_columns(m, euler[1], flat_t[1])
-        out[0] = m[:, col[0]]
+    _, out = rotation_and_axes_t(flat_t, euler)
     return np.moveaxis(out, -1, 0).reshape(batch + (3, 3))
 
 

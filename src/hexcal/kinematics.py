@@ -15,7 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.conventions import as_poses, euler_axes, rotation_matrices, rotation_matrices_t
+from hexcal.conventions import (
+    as_poses,
+    check_euler,
+    rotation_and_axes_t,
+    rotation_matrices,
+    rotation_matrices_t,
+)
 from hexcal.geometry import Geometry
 
 #: Default convergence tolerance of the forward kinematics, mm of leg length.
@@ -150,11 +156,25 @@ def pose_jacobian_from_arrays(
     ``d l_i / d o = n_i`` and ``d l_i / d θ_k = w_k · (R s_i × n_i)``.
     """
     poses = as_poses(poses)
-    legs, rotated = leg_vectors_from_arrays(base_joints, platform_joints, poses, euler)
+    check_euler(euler)
+    batch = poses.shape[:-1]
+    # rotations and rotation axes from one pass over the angles (the trigonometry dominates)
+    rot_t, axes_t = rotation_and_axes_t(np.ascontiguousarray(poses.reshape(-1, 6)[:, 3:].T), euler)
+    rot = np.moveaxis(rot_t, -1, 0).reshape(*batch, 3, 3)
+    axes = np.moveaxis(axes_t, -1, 0).reshape(*batch, 3, 3)
+    s = np.asarray(platform_joints, dtype=float)
+    rotated = (
+        s[..., :, 0, None] * rot[..., None, :, 0]
+        + s[..., :, 1, None] * rot[..., None, :, 1]
+        + s[..., :, 2, None] * rot[..., None, :, 2]
+    )
+    legs = rotated + (poses[..., None, :3] - np.asarray(base_joints))
     lengths = np.sqrt(np.einsum("...k,...k->...", legs, legs))
     unit = legs / lengths[..., None]
-    axes = euler_axes(poses[..., 3:], euler)
-    moment = np.cross(rotated, unit)
+    # moment = rotated × unit, by components (np.cross costs more than it computes here)
+    rx, ry, rz = rotated[..., 0], rotated[..., 1], rotated[..., 2]
+    ux, uy, uz = unit[..., 0], unit[..., 1], unit[..., 2]
+    moment = np.stack([ry * uz - rz * uy, rz * ux - rx * uz, rx * uy - ry * ux], axis=-1)
     # angular columns: jac[..., i, 3 + k] = w_k · moment_i
     angular = (
         moment[..., :, 0, None] * axes[..., None, :, 0]

@@ -30,6 +30,8 @@ With no pose noise both reduce to least squares on the leg length residual.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -170,7 +172,7 @@ def identify_ml(
         j_pose = np.concatenate([jp / sigma, np.broadcast_to(wp, (m, 6, 6))], axis=1)  # (m, 12, 6)
         q, _ = np.linalg.qr(j_pose)
         full_a = np.concatenate([a, np.zeros_like(a)], axis=1)  # (m, 12, n)
-        proj = full_a - np.einsum("mij,mkj,mkn->min", q, q[:, :6], a)
+        proj = full_a - np.matmul(q, np.matmul(q[:, :6].transpose(0, 2, 1), a))
         return proj.reshape(12 * m, -1)
 
     x0 = np.zeros(int(mask.sum()))
@@ -178,12 +180,10 @@ def identify_ml(
     # rank deficiency behind the small pose freedom the noise model allows)
     rot0, pos0 = _prepare(start, measured)
     check_rank(_jacobian(full0, rot0, pos0, readings, "length")[:, mask] * scale, mask)
-    check_rank(jac(x0), mask)
     rms_before = _rms(fun(x0))
     # start the outer iteration from the GLS estimate: the same estimator to first order,
     # five times cheaper, so LM needs only a couple of full likelihood iterations
-    gls = identify_gls(start, measurements, noise, mask, rounds=1)
-    x_start = (gls.values - base) / scale
+    x_start, *_ = _solve_gls(start, measurements, noise, mask, 1, xtol, check=False)
     state["poses"] = measured.copy()
     sol = least_squares(
         fun, x_start, jac=jac, method="lm", x_scale=1.0, xtol=xtol, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev
@@ -224,6 +224,20 @@ def identify_gls(
     check_data_size(measurements, mask)
     if not _has_pose_noise(noise) and noise.sigmas[0] == 0:
         return dataclasses.replace(identify(start, measurements, "length", mask), method="gls")
+    x, sol, rms_before, unpack = _solve_gls(start, measurements, noise, mask, rounds, xtol, check=True)
+    return finish_result(start, measurements, "gls", mask, unpack(x), sol.fun, sol.jac, rms_before, sol)
+
+
+def _solve_gls(
+    start: Geometry,
+    measurements: Measurements,
+    noise: NoiseModel,
+    mask: NDArray[np.bool_],
+    rounds: int,
+    xtol: float,
+    check: bool,
+) -> tuple[NDArray[np.float64], Any, float, Callable[[NDArray[np.float64]], NDArray[np.float64]]]:
+    """The GLS iterations: ``(x, last solver result, RMS before, unpack)``."""
     rot, pos = _prepare(start, measurements.poses)
     readings = measurements.readings
     m = len(measurements)
@@ -237,11 +251,7 @@ def identify_gls(
         return full
 
     floor = NoiseModel(
-        leg=max(noise.sigmas[0], LEG_SIGMA_FLOOR),
-        position=0,
-        orientation=0,
-        distribution="normal",
-        pose_covariance=noise.pose_cov(),
+        leg=max(noise.sigmas[0], LEG_SIGMA_FLOOR), distribution="normal", pose_covariance=noise.pose_cov()
     )
     x = np.zeros(int(mask.sum()))
     sol = None
@@ -255,17 +265,17 @@ def identify_gls(
 
         def jac(x: NDArray[np.float64], w: NDArray[np.float64] = w) -> NDArray[np.float64]:
             a = _jacobian(unpack(x), rot, pos, readings, "length")[:, mask].reshape(m, 6, -1) * scale
-            return np.einsum("mij,mjn->min", w, a).reshape(6 * m, -1)
+            return np.matmul(w, a).reshape(6 * m, -1)
 
         if k == 0:
-            check_rank(jac(x), mask)
+            if check:
+                check_rank(jac(x), mask)
             rms_before = _rms(fun(x))
         sol = least_squares(fun, x, jac=jac, method="lm", x_scale=1.0, xtol=xtol, ftol=1e-12, gtol=1e-12)
         if sol.status <= 0 or not np.all(np.isfinite(sol.x)):
             raise IdentificationError(f"the solver did not converge: {sol.message}")
         x = sol.x
-    assert sol is not None
-    return finish_result(start, measurements, "gls", mask, unpack(x), sol.fun, sol.jac, rms_before, sol)
+    return x, sol, rms_before, unpack
 
 
 def estimate(
