@@ -190,8 +190,11 @@ def _candidates(spec: str, geometry: Any, seed: int) -> tuple[NDArray[np.float64
 
 def _feasible(
     geometry: Any, poses: NDArray[np.float64], ids: list[str], min_distance: float | None
-) -> tuple[NDArray[np.float64], list[str], NDArray[np.intp]]:
-    """Feasible candidates; reports the infeasible ones on stderr."""
+) -> tuple[NDArray[np.float64], list[str], str | None]:
+    """Feasible candidates, their ids, and a warning naming the infeasible ones (or None).
+
+    The warning is printed once the command has succeeded, so that a failure stays one line.
+    """
     from hexcal.candidates import MIN_SINGULARITY_DISTANCE, check_feasibility
     from hexcal.cli import CommandError, _id_list
 
@@ -200,17 +203,15 @@ def _feasible(
         raise CommandError(f"--min-distance must be a finite value >= 0, got {threshold}")
     report = check_feasibility(geometry, poses, threshold)
     keep = np.flatnonzero(report.feasible)
+    if keep.size == 0:
+        raise CommandError(f"no feasible candidate pose: {report.summary()}")
+    warning = None
     if report.n_infeasible:
         bad = np.flatnonzero(~report.feasible)
         detail = "; ".join(f"{ids[k]}: {report.reasons(k)}" for k in bad[:5])
         more = f" ... ids {_id_list([ids[k] for k in bad])}" if bad.size > 5 else ""
-        print(
-            f"hexcal: warning: candidates: {report.summary()}; never proposed ({detail}{more})",
-            file=sys.stderr,
-        )
-    if keep.size == 0:
-        raise CommandError(f"no feasible candidate pose: {report.summary()}")
-    return poses[keep], [ids[k] for k in keep], keep
+        warning = f"hexcal: warning: candidates: {report.summary()}; never proposed ({detail}{more})"
+    return poses[keep], [ids[k] for k in keep], warning
 
 
 def _finite(value: float) -> float | None:
@@ -446,14 +447,14 @@ def cmd_observability(args: argparse.Namespace) -> None:
         test = workspace_corners(geometry)
     else:
         test = None
-    report = check_feasibility(geometry, poses)
-    if report.n_infeasible:
-        bad = [ids[k] for k in np.flatnonzero(~report.feasible)]
-        print(f"hexcal: warning: {args.poses}: {report.summary()} (ids {_id_list(bad)})", file=sys.stderr)
     try:
         analysis = analyse_poses(geometry, poses, noise, mask, test, scaling, method, args.weighted)
     except np.linalg.LinAlgError as exc:
         raise CommandError(f"{args.poses}: cannot analyse these poses ({exc})") from None
+    report = check_feasibility(geometry, poses)
+    if report.n_infeasible:
+        bad = [ids[k] for k in np.flatnonzero(~report.feasible)]
+        print(f"hexcal: warning: {args.poses}: {report.summary()} (ids {_id_list(bad)})", file=sys.stderr)
     n_test = 0 if test is None else len(test)
     print(format_analysis(analysis, args.fit, n_test))
     if args.json:
@@ -473,7 +474,9 @@ def cmd_candidates(args: argparse.Namespace) -> None:
     _check_outputs(args.out)
     geometry = _geometry(args.geometry, args.euler)
     poses, ids = _candidates(args.candidates, geometry, args.seed)
-    feasible, kept, _ = _feasible(geometry, poses, ids, args.min_distance)
+    feasible, kept, warning = _feasible(geometry, poses, ids, args.min_distance)
+    if warning:
+        print(warning, file=sys.stderr)
     write_poses(args.out, feasible, kept, comment=f"feasible candidates {args.candidates} (seed {args.seed})")
     print(f"wrote {len(kept)} feasible of {len(ids)} candidate pose(s) to {args.out}")
 
@@ -508,6 +511,7 @@ def cmd_select(args: argparse.Namespace) -> None:
     if n < min_poses:
         raise CommandError(f"--n {n}: at least {min_poses} poses are needed to identify the parameters")
     rng = np.random.default_rng(args.seed)
+    warning = None
     corners = corner_ids = None
     if geometry.workspace is not None:
         threshold = MIN_SINGULARITY_DISTANCE if args.min_distance is None else args.min_distance
@@ -529,9 +533,10 @@ def cmd_select(args: argparse.Namespace) -> None:
         result = None
     else:
         candidates, cand_ids = _candidates(args.candidates, geometry, args.seed)
-        feasible, kept, _ = _feasible(geometry, candidates, cand_ids, args.min_distance)
+        feasible, kept, warning = _feasible(geometry, candidates, cand_ids, args.min_distance)
         if n > len(kept):
-            raise CommandError(f"--n {n}: only {len(kept)} feasible candidate pose(s)")
+            dropped = f" ({len(cand_ids) - len(kept)} infeasible left out)" if warning else ""
+            raise CommandError(f"--n {n}: only {len(kept)} feasible candidate pose(s){dropped}")
         blocks = information_blocks(geometry, feasible, noise, mask)
         result = select_poses(blocks, n, criterion, rng, exchange=not args.no_exchange)
         poses, ids = feasible[result.indices], [kept[k] for k in result.indices]
@@ -574,6 +579,8 @@ def cmd_select(args: argparse.Namespace) -> None:
     if "paper" in rows and strategy == "optimal":
         gain = 1 - rows["selected"][0] / rows["paper"][0]
         print(f"  selected vs the paper's strategy: {gain:+.0%} lower predicted error")
+    if warning:
+        print(warning, file=sys.stderr)
     write_poses(args.out, poses, ids, comment=f"hexcal select: {label}")
     if args.json:
         data = {
