@@ -247,23 +247,35 @@ def _best_by_eigenvalues(
 
     Every candidate is screened by the Rayleigh–Ritz value of ``F + BᵀB`` on the
     ``SCREEN_DIMENSIONS`` weakest eigenvectors of ``F`` (an upper bound of its ``λmin``);
-    the ``SCREEN_SHORTLIST`` best are evaluated exactly.
+    the ``SCREEN_SHORTLIST`` best are evaluated exactly. The Ritz values themselves are
+    computed only for a pool of candidates, grown until the smallest diagonal entry of
+    the Ritz matrix (an upper bound of its smallest eigenvalue) proves that no candidate
+    outside the pool could enter the shortlist.
     """
     n_cand, rows, p = blocks.shape
     lam, vec = np.linalg.eigh(info)
     w = min(p, SCREEN_DIMENSIONS)
     k = (blocks.reshape(-1, p) @ vec[:, :w]).reshape(n_cand, rows, w)
-    ritz = np.matmul(np.swapaxes(k, 1, 2), k)
-    ritz[:, np.arange(w), np.arange(w)] += lam[:w]
-    screen = np.linalg.eigvalsh(ritz)[:, 0]
-    if criterion == "O4":
-        screen = screen / np.sqrt(lam[-1])
-    screen = np.where(available, screen, -np.inf)
-    short = np.argsort(-screen, kind="stable")[: min(SCREEN_SHORTLIST, int(available.sum()))]
+    factor = 1.0 / np.sqrt(lam[-1]) if criterion == "O4" else 1.0
+    bound = (lam[:w] + np.einsum("nrk,nrk->nk", k, k)).min(axis=1) * factor
+    bound = np.where(available, bound, -np.inf)
+    n_short = min(SCREEN_SHORTLIST, int(available.sum()))
+    order = np.argsort(-bound, kind="stable")
+    size = min(n_cand, 8 * n_short)
+    while True:
+        pool = order[:size]
+        ritz = np.matmul(np.swapaxes(k[pool], 1, 2), k[pool])
+        ritz[:, np.arange(w), np.arange(w)] += lam[:w]
+        screen = np.where(available[pool], np.linalg.eigvalsh(ritz)[:, 0] * factor, -np.inf)
+        best = np.argsort(-screen, kind="stable")[:n_short]
+        if size >= n_cand or bound[order[size]] <= screen[best[-1]]:
+            break
+        size = min(n_cand, 4 * size)
+    short = pool[best]
     trial = info + np.matmul(np.swapaxes(blocks[short], 1, 2), blocks[short])
     exact = np.asarray(criterion_value(trial, criterion), dtype=float).reshape(-1)
-    best = int(np.argmax(exact))
-    return int(short[best]), float(exact[best])
+    j = int(np.argmax(exact))
+    return int(short[j]), float(exact[j])
 
 
 def _argmax(scores: NDArray[np.float64], available: NDArray[np.bool_]) -> int:
