@@ -228,6 +228,22 @@ def test_exchange_mends_a_rank_deficient_start():
     assert criterion_value(information_matrix(degenerate, chosen), "D") > -np.inf
 
 
+@pytest.mark.parametrize("criterion", CRITERIA)
+def test_exactly_determined_sets(criterion):
+    # 4 poses of 2 rows for 8 parameters: removing any pose leaves F singular, the case of
+    # 7 hexapod poses for 42 parameters
+    blocks = random_blocks(n_cand=40, rows=2, p=8, seed=5)
+    result = select_poses(blocks, 4, criterion, rng=0)
+    assert result.value >= result.greedy_value
+    assert criterion_value(information_matrix(blocks, result.indices), "D") > -np.inf
+
+
+def test_seven_hexapod_poses(nominal):
+    candidates = candidate_poses(nominal, "grid")
+    result = select_poses(information_blocks(nominal, candidates), 7, "D", rng=0)
+    assert result.value >= result.greedy_value > -np.inf
+
+
 def test_selection_is_deterministic_under_a_seed(nominal):
     candidates = candidate_poses(nominal, "corners")
     blocks = information_blocks(nominal, candidates)

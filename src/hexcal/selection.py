@@ -147,7 +147,11 @@ def _full_rank(info: NDArray[np.float64]) -> bool:
 
 def _logdet_spd(m: NDArray[np.float64]) -> NDArray[np.float64]:
     """``log det`` of symmetric positive definite matrices (..., k, k)."""
-    chol = np.linalg.cholesky(m)
+    try:
+        chol = np.linalg.cholesky(m)
+    except np.linalg.LinAlgError:  # rounding made some barely definite: slower but safe
+        sign, logdet = np.linalg.slogdet(m)
+        return np.where(sign > 0, logdet, -np.inf)
     return 2.0 * np.sum(np.log(np.diagonal(chol, axis1=-2, axis2=-1)), axis=-1)
 
 
@@ -167,10 +171,17 @@ class _Scorer:
 
     REFRESH = 8
 
-    def __init__(self, blocks: NDArray[np.float64], info: NDArray[np.float64], criterion: str) -> None:
+    def __init__(
+        self,
+        blocks: NDArray[np.float64],
+        info: NDArray[np.float64],
+        criterion: str,
+        fallback_ridge: float = 0.0,
+    ) -> None:
         self.blocks = blocks
         self.flat = blocks.reshape(-1, blocks.shape[-1])
         self.criterion = criterion
+        self.fallback_ridge = fallback_ridge  # added when a removal leaves F nearly singular
         self.reset(info)
 
     def reset(self, info: NDArray[np.float64]) -> None:
@@ -220,9 +231,11 @@ class _Scorer:
         """Criterion of ``F - B_cᵀ B_c + B_jᵀ B_j`` for every candidate ``j``."""
         changed = self._changed(c, -1.0)
         if changed is None:
-            return _Scorer(
-                self.blocks, self.info - self.blocks[c].T @ self.blocks[c], self.criterion
-            ).scores()
+            # removing c leaves F nearly singular (a set barely larger than the parameters):
+            # rank the replacements on a ridged copy; the exchange accepts on exact values
+            rest = self.info - self.blocks[c].T @ self.blocks[c]
+            rest += self.fallback_ridge * np.eye(rest.shape[0])
+            return _Scorer(self.blocks, rest, self.criterion).scores()
         return self._scores(*changed)
 
     def change(self, c: int, sign: float) -> None:
@@ -414,7 +427,8 @@ def exchange_selection(
 
     crit, ridge, value_ridge = setting(_full_rank(info))
     value = criterion_value(info + value_ridge, crit)
-    scorer = _Scorer(b, info + ridge, crit) if crit in ("D", "A") else None
+    fallback = GREEDY_RIDGE * scale
+    scorer = _Scorer(b, info + ridge, crit, fallback) if crit in ("D", "A") else None
     available = np.ones(n_cand, dtype=bool)
     available[chosen] = False
     swaps = visits = unchanged = slot = 0
@@ -438,10 +452,10 @@ def exchange_selection(
                 # the set now identifies everything: continue on the exact criterion
                 crit, ridge, value_ridge = setting(True)
                 value = criterion_value(info, crit)
-                scorer = _Scorer(b, info + ridge, crit) if crit in ("D", "A") else None
+                scorer = _Scorer(b, info + ridge, crit, fallback) if crit in ("D", "A") else None
             elif scorer is not None:
+                scorer.change(j, 1.0)  # add first: F stays well conditioned in between
                 scorer.change(out, -1.0)
-                scorer.change(j, 1.0)
         available[chosen[slot]] = False
         slot = (slot + 1) % chosen.size
     return chosen, swaps, -(-visits // chosen.size)
