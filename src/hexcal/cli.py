@@ -312,7 +312,7 @@ def _int_list(text: str, option: str) -> list[int]:
 
 def cmd_simulate(args: argparse.Namespace) -> None:
     from hexcal.likelihood import ESTIMATORS
-    from hexcal.study import STRATEGIES, format_study, run_study
+    from hexcal.study import STRATEGIES, fixed_strategy, format_study, run_study
 
     nominal = _geometry(args.geometry)
     true = None if args.true == "random" else _geometry(args.true)
@@ -325,13 +325,19 @@ def cmd_simulate(args: argparse.Namespace) -> None:
             f"--methods: unknown {', '.join(bad) or 'empty list'}; choose from {', '.join(ESTIMATORS)}"
         )
     names = [s.strip() for s in args.strategies.split(",") if s.strip()]
-    unknown = [s for s in names if s not in STRATEGIES]
+    known = [*STRATEGIES, "selected"]
+    unknown = [s for s in names if s not in known]
     if unknown or not names:
         raise CommandError(
-            f"--strategies: unknown {', '.join(unknown) or 'empty list'}; choose from {', '.join(STRATEGIES)}"
+            f"--strategies: unknown {', '.join(unknown) or 'empty list'}; choose from {', '.join(known)}"
         )
     counts = _int_list(args.poses, "--poses")
     base = _noise(args)
+    strategies = {s: STRATEGIES[s] for s in names if s in STRATEGIES}
+    if "selected" in names:
+        strategies["selected"] = fixed_strategy(
+            {n: _optimal_poses(nominal, n, base, args.seed) for n in counts}
+        )
     try:
         levels = [float(v) for v in args.noise_levels.split(",") if v.strip()]
     except ValueError:
@@ -355,7 +361,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         nominal,
         true,
         methods,
-        {s: STRATEGIES[s] for s in names},
+        strategies,
         counts,
         noises,
         args.trials,
@@ -601,7 +607,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--methods", default="paper,ml", help="estimators, comma-separated: ml, gls, length, paper"
     )
-    p.add_argument("--strategies", default="corners,interior", help="pose strategies: corners, interior")
+    p.add_argument(
+        "--strategies",
+        default="corners,interior",
+        help="pose strategies: corners (random of the 64), interior (random), selected (A-optimal "
+        "poses of the boundary grid for the nominal geometry)",
+    )
     p.add_argument("--poses", default="15", help="numbers of poses, comma-separated, e.g. 7,15,30")
     _noise_options(p)
     p.add_argument("--noise-levels", default="1", help="factors applied to the noise, e.g. 0.5,1,2")
