@@ -18,8 +18,9 @@ machine at the poses it really reached) and the Cramér-Rao bound of a noise-wei
 estimator. Then the error as the number of poses grows from 7 to 64 (predicted for
 every count; Monte Carlo from 8, since 7 poses give 42 equations for 42 unknowns, which
 ``identify`` refuses). It prints markdown tables and writes the figures and numbers to
-``docs/`` (``--out``): selection_study.png, selection_study.json and the error map
-figures errormap_x.png, errormap_z.png, errormap_a-b.png with errormap_claims.json.
+``docs/`` (``--out``): selection_study.png and the error map figures errormap_x.png,
+errormap_z.png and errormap_a-b.png (with ``--save-json`` also the numbers, as
+selection_study.json and errormap_claims.json).
 """
 
 from __future__ import annotations
@@ -167,6 +168,7 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=2024)
     parser.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "docs"))
     parser.add_argument("--quick", action="store_true", help="20 trials, 10 per growth point")
+    parser.add_argument("--save-json", action="store_true", help="also write the numbers as JSON to --out")
     args = parser.parse_args()
     if args.quick:
         args.trials, args.growth_trials = 20, 10
@@ -241,9 +243,10 @@ def main() -> int:
     plot_error_lines(maps.lines["x"], out / "errormap_x.png")
     plot_error_lines(maps.lines["z"], out / "errormap_z.png")
     plot_error_angles(maps.angles["a-b"], out / "errormap_a-b.png")
-    with open(out / "errormap_claims.json", "w", encoding="utf-8") as fh:
-        json.dump(summary, fh, indent=2)
-        fh.write("\n")
+    if args.save_json:
+        with open(out / "errormap_claims.json", "w", encoding="utf-8") as fh:
+            json.dump(summary, fh, indent=2)
+            fh.write("\n")
 
     results = {
         "settings": {
@@ -264,10 +267,11 @@ def main() -> int:
             "empirical": {k: {"counts": v[0], "mean_abs_error": v[1]} for k, v in empirical.items()},
         },
     }
-    with open(out / "selection_study.json", "w", encoding="utf-8") as fh:
-        json.dump(results, fh, indent=2)
-        fh.write("\n")
-    print(f"\nwrote {out}/selection_study.png, selection_study.json and the error map figures")
+    if args.save_json:
+        with open(out / "selection_study.json", "w", encoding="utf-8") as fh:
+            json.dump(results, fh, indent=2)
+            fh.write("\n")
+    print(f"\nwrote {out}/selection_study.png and the error map figures")
     print(f"({time.perf_counter() - start:.0f} s)")
     return 0 if gain >= TARGET_GAIN else 1
 

@@ -578,7 +578,8 @@ def cmd_select(args: argparse.Namespace) -> None:
         print(f"  {text:<58} {est:8.4f} | {bound:.4f}")
     if "paper" in rows and strategy == "optimal":
         gain = 1 - rows["selected"][0] / rows["paper"][0]
-        print(f"  selected vs the paper's strategy: {gain:+.0%} lower predicted error")
+        word = "lower" if gain >= 0 else "higher"
+        print(f"  selected vs the paper's strategy: {abs(gain):.0%} {word} predicted error")
     if warning:
         print(warning, file=sys.stderr)
     write_poses(args.out, poses, ids, comment=f"hexcal select: {label}")
