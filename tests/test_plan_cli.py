@@ -216,6 +216,15 @@ def test_observability_names_what_a_flat_pose_set_cannot_identify(capsys, tmp_pa
     assert data["predicted_mean_abs_error_mm"]["estimator"] is None
 
 
+def test_observability_warns_about_infeasible_planned_poses(capsys, tmp_path, corner_poses):
+    poses = tmp_path / "poses.csv"
+    write_poses(poses, np.vstack([corner_poses, [[0, 0, 1100, 0, 0, 0]]]), [f"p{k}" for k in range(16)])
+    status, stdout, err = run(capsys, "observability", "--geometry", "paper-hmt", "--poses", poses)
+    assert status == 0
+    assert err.startswith("hexcal: warning:") and "p15" in err and "upper limit" in err
+    assert "rank 42 of 42" in stdout
+
+
 def test_select_refuses_candidates_that_cannot_identify(capsys, tmp_path, flat_poses):
     out = tmp_path / "sel.csv"
     status, _, err = run(
