@@ -13,6 +13,7 @@ Both are minimised by Levenberg–Marquardt (``scipy.optimize.least_squares``,
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -342,12 +343,8 @@ def identify(
     readings = measurements.readings
     full0 = start.to_vector(gains=True)
     scale = PARAMETER_SCALE[mask]
-    base = full0[mask]
 
-    def unpack(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        full = full0.copy()
-        full[mask] = base + x * scale
-        return full
+    unpack = parameter_unpacker(full0, mask)
 
     def fun(x: NDArray[np.float64]) -> NDArray[np.float64]:
         return _residuals(unpack(x), rot, pos, readings, method).ravel()
@@ -466,6 +463,24 @@ def finish_result(
         n_poses=m,
         ids=measurements.ids,
     )
+
+
+def parameter_unpacker(
+    full0: NDArray[np.float64], mask: NDArray[np.bool_]
+) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+    """The map from solver variables to the full 48-vector.
+
+    The solver varies ``x = (θ[mask] - full0[mask]) / PARAMETER_SCALE[mask]``; the
+    parameters not varied keep their values in ``full0``.
+    """
+    base, scale = full0[mask], PARAMETER_SCALE[mask]
+
+    def unpack(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        full = full0.copy()
+        full[mask] = base + x * scale
+        return full
+
+    return unpack
 
 
 def _rms(x: NDArray[np.float64]) -> float:

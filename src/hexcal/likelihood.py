@@ -50,6 +50,7 @@ from hexcal.identification import (
     check_rank,
     finish_result,
     identify,
+    parameter_unpacker,
 )
 from hexcal.kinematics import pose_jacobian_from_arrays
 from hexcal.measurement import Measurements, NoiseModel
@@ -128,12 +129,8 @@ def identify_ml(
     euler = start.euler
     full0 = start.to_vector(gains=True)
     scale = PARAMETER_SCALE[mask]
-    base = full0[mask]
 
-    def unpack(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        full = full0.copy()
-        full[mask] = base + x * scale
-        return full
+    unpack = parameter_unpacker(full0, mask)
 
     state: dict[str, object] = {"x": None, "poses": measured.copy()}
 
@@ -243,12 +240,8 @@ def _solve_gls(
     m = len(measurements)
     full0 = start.to_vector(gains=True)
     scale = PARAMETER_SCALE[mask]
-    base = full0[mask]
 
-    def unpack(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        full = full0.copy()
-        full[mask] = base + x * scale
-        return full
+    unpack = parameter_unpacker(full0, mask)
 
     floor = NoiseModel(
         leg=max(noise.sigmas[0], LEG_SIGMA_FLOOR), distribution="normal", pose_covariance=noise.pose_cov()

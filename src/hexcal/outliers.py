@@ -49,6 +49,7 @@ from hexcal.identification import (
     check_data_size,
     identification_jacobian,
     identify,
+    parameter_unpacker,
 )
 from hexcal.likelihood import LEG_SIGMA_FLOOR, identify_gls
 from hexcal.measurement import Measurements, NoiseModel
@@ -170,12 +171,8 @@ def screen_poses(
     readings = measurements.readings
     full0 = start.to_vector(gains=True)
     scale_p = PARAMETER_SCALE[mask]
-    base = full0[mask]
 
-    def unpack(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        full = full0.copy()
-        full[mask] = base + x * scale_p
-        return full
+    unpack = parameter_unpacker(full0, mask)
 
     def fun(x: NDArray[np.float64]) -> NDArray[np.float64]:
         return _residuals(unpack(x), rot, pos, readings, "length").ravel()
