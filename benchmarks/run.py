@@ -31,9 +31,8 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import scipy  # noqa: E402
 
-from hexcal.geometry import Geometry  # noqa: E402
-from hexcal.identification import IdentificationError, identify  # noqa: E402
-from hexcal.kinematics import (  # noqa: E402
+from hexcal.core.geometry import Geometry  # noqa: E402
+from hexcal.core.kinematics import (  # noqa: E402
     FK_TOLERANCE,
     forward_kinematics,
     inverse_kinematics,
@@ -42,8 +41,9 @@ from hexcal.kinematics import (  # noqa: E402
     random_poses,
     workspace_corners,
 )
-from hexcal.measurement import Measurements, NoiseModel  # noqa: E402
-from hexcal.presets import preset  # noqa: E402
+from hexcal.core.measurement import Measurements, NoiseModel  # noqa: E402
+from hexcal.core.presets import preset  # noqa: E402
+from hexcal.estimation.identification import IdentificationError, identify  # noqa: E402
 
 BENCHMARKS = ("ik", "fk", "identify", "ml", "identify-cli", "cli")
 SEED = 20240601
@@ -245,7 +245,7 @@ def bench_fk(report: Report, nominal: Geometry, quick: bool) -> None:
 def simulated_corner_data(
     nominal: Geometry, true: Geometry, n_poses: int, rng: np.random.Generator, noise: NoiseModel
 ) -> Measurements:
-    """One noisy data set from random workspace corners, following hexcal.simulation.
+    """One noisy data set from random workspace corners, following hexcal.simulation.campaign.
 
     Readings come from the nominal inverse kinematics; the true machine reaches the
     forward kinematics of ``l0 + g dl + e`` (leg sensor error ``e``); the measured
@@ -306,8 +306,8 @@ def bench_identify(report: Report, nominal: Geometry, quick: bool) -> None:
 
 def bench_ml(report: Report, nominal: Geometry, quick: bool) -> None:
     """Maximum-likelihood identification (issue 5): 15 corners, and 1000 random workspace poses."""
-    from hexcal.likelihood import identify_ml
-    from hexcal.simulation import simulate_measurements
+    from hexcal.estimation.likelihood import identify_ml
+    from hexcal.simulation.campaign import simulate_measurements
 
     header("maximum likelihood: identify_ml(paper-hmt, noisy data of paper-hmt-true), 42 parameters")
     true = preset("paper-hmt-true")
@@ -355,7 +355,7 @@ def bench_identify_cli(report: Report, nominal: Geometry, quick: bool) -> None:
     import tempfile
 
     from hexcal.io import write_measurements
-    from hexcal.simulation import simulate_measurements
+    from hexcal.simulation.campaign import simulate_measurements
 
     exe = hexcal_executable()
     header(f"command line: {exe} identify (default method) on simulated measurement files")

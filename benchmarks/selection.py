@@ -19,9 +19,9 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from hexcal.candidates import check_feasibility, random_interior  # noqa: E402
-from hexcal.presets import preset  # noqa: E402
-from hexcal.selection import CRITERIA, information_blocks, select_poses  # noqa: E402
+from hexcal.core.presets import preset  # noqa: E402
+from hexcal.design.candidates import check_feasibility, random_interior  # noqa: E402
+from hexcal.design.selection import CRITERIA, information_blocks, select_poses  # noqa: E402
 
 TARGET_SECONDS = 2.0
 TARGET_CANDIDATES = 10_000

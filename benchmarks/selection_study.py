@@ -13,7 +13,7 @@ trials) of:
   from the 728-pose boundary grid, and D from the 64 corners only;
 
 beside its predicted value: at planning time (nominal geometry at the commanded poses,
-:func:`hexcal.identifiability.least_squares_covariance`), in hindsight (the real
+:func:`hexcal.design.identifiability.least_squares_covariance`), in hindsight (the real
 machine at the poses it really reached) and the Cramér-Rao bound of a noise-weighted
 estimator. Then the error as the number of poses grows from 7 to 64 (predicted for
 every count; Monte Carlo from 8, since 7 poses give 42 equations for 42 unknowns, which
@@ -39,16 +39,16 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
-from hexcal.candidates import candidate_poses, random_interior  # noqa: E402
-from hexcal.errormap import claims, error_maps, format_claims  # noqa: E402
-from hexcal.geometry import Geometry  # noqa: E402
-from hexcal.identifiability import least_squares_covariance, mean_abs_error  # noqa: E402
-from hexcal.identification import IdentificationError, identify  # noqa: E402
-from hexcal.measurement import NoiseModel  # noqa: E402
-from hexcal.observability import cramer_rao_covariance  # noqa: E402
-from hexcal.presets import preset  # noqa: E402
-from hexcal.selection import information_blocks, random_subsets, select_poses  # noqa: E402
-from hexcal.simulation import simulate_measurements  # noqa: E402
+from hexcal.core.geometry import Geometry  # noqa: E402
+from hexcal.core.measurement import NoiseModel  # noqa: E402
+from hexcal.core.presets import preset  # noqa: E402
+from hexcal.design.candidates import candidate_poses, random_interior  # noqa: E402
+from hexcal.design.errormap import claims, error_maps, format_claims  # noqa: E402
+from hexcal.design.identifiability import least_squares_covariance, mean_abs_error  # noqa: E402
+from hexcal.design.selection import information_blocks, random_subsets, select_poses  # noqa: E402
+from hexcal.estimation.bounds import cramer_rao_covariance  # noqa: E402
+from hexcal.estimation.identification import IdentificationError, identify  # noqa: E402
+from hexcal.simulation.campaign import simulate_measurements  # noqa: E402
 
 N_POSES = 15
 GROWTH_PREDICTED = (7, 8, 9, 10, 12, 15, 20, 25, 30, 35, 40, 45, 50, 55, 60, 64)
@@ -225,7 +225,7 @@ def main() -> int:
             )
         print(f"| {n} | " + " | ".join(cells) + " |")
 
-    from hexcal.plotting import plot_error_angles, plot_error_lines, plot_selection_study
+    from hexcal.report.figures import plot_error_angles, plot_error_lines, plot_selection_study
 
     plot_selection_study(
         np.array(GROWTH_PREDICTED),

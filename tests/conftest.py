@@ -1,6 +1,6 @@
 """Shared fixtures: the seed paper's machine and simulated measurements.
 
-``simulate_measurements`` follows the protocol of :mod:`hexcal.simulation` (and of the
+``simulate_measurements`` follows the protocol of :mod:`hexcal.simulation.campaign` (and of the
 seed paper's section VI): leg readings come from the nominal inverse kinematics, the
 true machine reaches the forward kinematics of its own parameters at those readings
 (plus the leg sensor error), and the measured pose is that plus the measurement noise.
@@ -18,16 +18,16 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 import pytest
 
-from hexcal.geometry import Geometry
-from hexcal.kinematics import (
+from hexcal.core.geometry import Geometry
+from hexcal.core.kinematics import (
     forward_kinematics,
     inverse_kinematics,
     leg_lengths,
     leg_readings,
     workspace_corners,
 )
-from hexcal.measurement import Measurements, NoiseModel
-from hexcal.presets import preset
+from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.presets import preset
 
 
 def simulate_measurements(

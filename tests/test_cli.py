@@ -22,9 +22,9 @@ import yaml
 from numpy.testing import assert_allclose, assert_array_equal
 
 from hexcal.cli import main
+from hexcal.core.kinematics import inverse_kinematics, leg_readings, workspace_corners
+from hexcal.core.presets import preset
 from hexcal.io import load_geometry, read_legs, read_poses, save_geometry, write_poses, write_table
-from hexcal.kinematics import inverse_kinematics, leg_readings, workspace_corners
-from hexcal.presets import preset
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 L_COLUMNS = [f"l{i}" for i in range(1, 7)]

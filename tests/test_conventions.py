@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from scipy.spatial.transform import Rotation
 
-from hexcal.conventions import (
+from hexcal.core.conventions import (
     DEFAULT_EULER,
     POSE_NAMES,
     as_poses,

@@ -1,4 +1,4 @@
-"""Error maps of random parameter errors (hexcal.errormap), after the seed paper's Figs. 4-9.
+"""Error maps of random parameter errors (hexcal.design.errormap), after the seed paper's Figs. 4-9.
 
 Provenance: the first-order map is checked against the forward kinematics of every
 perturbed machine; the claims are the seed paper's section IV (errors largest on the
@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from hexcal.errormap import (
+from hexcal.core.geometry import select_parameters
+from hexcal.design.errormap import (
     angle_grid_poses,
     claims,
     error_maps,
@@ -21,12 +22,11 @@ from hexcal.errormap import (
     parameter_error_draws,
     pose_error_samples,
 )
-from hexcal.geometry import select_parameters
 
 
 @pytest.fixture(scope="module")
 def small_maps():
-    from hexcal.presets import preset
+    from hexcal.core.presets import preset
 
     return error_maps(preset("paper-hmt"), levels=6, points=9, grid=7, draws=40, rng=1, interior=300)
 

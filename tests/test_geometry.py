@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from numpy.testing import assert_allclose, assert_array_equal
 
-from hexcal.geometry import (
+from hexcal.core.geometry import (
     N_ALL_PARAMETERS,
     N_BASE_PARAMETERS,
     PARAMETER_GROUPS,
@@ -23,7 +23,7 @@ from hexcal.geometry import (
     GeometryError,
     select_parameters,
 )
-from hexcal.presets import PRESETS, preset
+from hexcal.core.presets import PRESETS, preset
 
 ARRAY_FIELDS = (
     "base_joints",

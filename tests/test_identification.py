@@ -7,8 +7,10 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy import stats
 
-from hexcal.geometry import PARAMETER_NAMES, select_parameters
-from hexcal.identification import (
+from hexcal.core.geometry import PARAMETER_NAMES, select_parameters
+from hexcal.core.kinematics import inverse_kinematics, leg_readings, random_poses
+from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.estimation.identification import (
     METHODS,
     PARAMETER_SCALE,
     IdentificationError,
@@ -16,8 +18,6 @@ from hexcal.identification import (
     identification_residuals,
     identify,
 )
-from hexcal.kinematics import inverse_kinematics, leg_readings, random_poses
-from hexcal.measurement import Measurements, NoiseModel
 
 # true leg gains off by about 1e-3 (a leg moving 300 mm then errs by about 0.3 mm)
 GAIN_ERRORS = 1e-3 * np.array([1.0, -1.0, 0.5, -0.5, 2.0, -1.5])

@@ -16,7 +16,8 @@ import yaml
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy.spatial.transform import Rotation
 
-from hexcal.geometry import Geometry
+from hexcal.core.geometry import Geometry
+from hexcal.core.presets import PRESETS, preset
 from hexcal.io import (
     QUATERNION_NORM_TOLERANCE,
     InputError,
@@ -32,7 +33,6 @@ from hexcal.io import (
     write_poses,
     write_table,
 )
-from hexcal.presets import PRESETS, preset
 
 GEOMETRY_ARRAYS = (
     "base_joints",

@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy.spatial.transform import Rotation
 
-from hexcal.conventions import orientation_error
-from hexcal.kinematics import (
+from hexcal.core.conventions import orientation_error
+from hexcal.core.kinematics import (
     forward_kinematics,
     inverse_kinematics,
     is_feasible,
@@ -23,7 +23,7 @@ from hexcal.kinematics import (
     random_poses,
     workspace_corners,
 )
-from hexcal.presets import preset
+from hexcal.core.presets import preset
 
 PAPER = preset("paper-hmt")
 BATCH_SHAPES = [(), (4,), (2, 3)]

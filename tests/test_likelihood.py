@@ -1,4 +1,4 @@
-"""Maximum likelihood, GLS and the Cramér–Rao bound (hexcal.likelihood, hexcal.observability)."""
+"""Maximum likelihood, GLS and the Cramér–Rao bound (hexcal.estimation)."""
 
 from __future__ import annotations
 
@@ -7,13 +7,13 @@ import pytest
 from numpy.testing import assert_allclose
 
 from hexcal.cli import CommandError, parse_noise
-from hexcal.geometry import select_parameters
-from hexcal.identification import IdentificationError, identify
-from hexcal.kinematics import leg_vectors, workspace_corners
-from hexcal.likelihood import estimate, identify_gls, identify_ml
-from hexcal.measurement import Measurements, NoiseModel
-from hexcal.observability import bound_mean_abs_error, cramer_rao_covariance, fisher_information
-from hexcal.simulation import simulate_measurements
+from hexcal.core.geometry import select_parameters
+from hexcal.core.kinematics import leg_vectors, workspace_corners
+from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.estimation.bounds import bound_mean_abs_error, cramer_rao_covariance, fisher_information
+from hexcal.estimation.identification import IdentificationError, identify
+from hexcal.estimation.likelihood import estimate, identify_gls, identify_ml
+from hexcal.simulation.campaign import simulate_measurements
 
 PAPER_NOISE = NoiseModel()  # the seed paper's section VI: ±0.01 mm, ±0.025 mm, ±0.001 rad
 
@@ -64,8 +64,8 @@ def test_cramer_rao_bound_matches_brute_force_fisher_information(true_machine, c
 
 def test_fisher_information_of_leg_noise_only_is_plain_least_squares_information(true_machine, corner_poses):
     """Without pose noise the information is AᵀA / σ² with A the identification Jacobian."""
-    from hexcal.identification import identification_jacobian
-    from hexcal.observability import planned_measurements
+    from hexcal.estimation.bounds import planned_measurements
+    from hexcal.estimation.identification import identification_jacobian
 
     noise = NoiseModel(leg=0.02, position=0, orientation=0, distribution="normal")
     a = identification_jacobian(true_machine, planned_measurements(true_machine, corner_poses))

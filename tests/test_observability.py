@@ -1,4 +1,4 @@
-"""Observability indices, identifiability and predicted accuracy (hexcal.identifiability).
+"""Observability indices, identifiability and predicted accuracy (hexcal.design.identifiability).
 
 Provenance of the reference values:
 - O1-O5 follow their definitions (Sun & Hollerbach 2008, doi:10.1109/ROBOT.2008.4543242)
@@ -19,8 +19,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from hexcal.geometry import PARAMETER_NAMES, select_parameters
-from hexcal.identifiability import (
+from hexcal.core.geometry import PARAMETER_NAMES, select_parameters
+from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, workspace_corners
+from hexcal.core.measurement import NoiseModel
+from hexcal.design.identifiability import (
     analyse_poses,
     column_scales,
     format_combination,
@@ -35,10 +37,8 @@ from hexcal.identifiability import (
     rotation_vector_map,
     unidentifiable_combinations,
 )
-from hexcal.identification import IdentificationError, identify
-from hexcal.kinematics import forward_kinematics, inverse_kinematics, workspace_corners
-from hexcal.measurement import NoiseModel
-from hexcal.observability import cramer_rao_covariance, residual_covariances
+from hexcal.estimation.bounds import cramer_rao_covariance, residual_covariances
+from hexcal.estimation.identification import IdentificationError, identify
 
 NAMES42 = PARAMETER_NAMES[:42]
 
@@ -169,7 +169,7 @@ def test_poses_that_never_rotate_lose_eighteen_combinations(nominal):
 def test_identify_refuses_the_set_the_analysis_calls_rank_deficient(nominal):
     # measurements exactly at the planned poses (a real machine's small tilts would make
     # the Jacobian numerically full rank but useless)
-    from hexcal.observability import planned_measurements
+    from hexcal.estimation.bounds import planned_measurements
 
     poses = workspace_corners(nominal)[::4].copy()
     poses[:, 3:] = 0.0
@@ -272,7 +272,7 @@ def test_predicted_error_matches_identify_by_monte_carlo(nominal, true_machine, 
     commanded corners; predicted at the poses it really reaches, the sandwich covariance
     gives the Monte Carlo mean error within its standard error (about 2 % with 200 trials).
     """
-    from hexcal.simulation import simulate_measurements
+    from hexcal.simulation.campaign import simulate_measurements
 
     reached = simulate_measurements(nominal, true_machine, corner_poses, NoiseModel(0, 0, 0)).poses
     predicted = mean_abs_error(least_squares_covariance(true_machine, reached))

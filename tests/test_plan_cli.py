@@ -15,10 +15,10 @@ import yaml
 from numpy.testing import assert_allclose
 
 from hexcal.cli import main
-from hexcal.identifiability import analyse_poses
+from hexcal.core.kinematics import workspace_corners
+from hexcal.core.presets import preset
+from hexcal.design.identifiability import analyse_poses
 from hexcal.io import read_poses, read_table, write_poses
-from hexcal.kinematics import workspace_corners
-from hexcal.presets import preset
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

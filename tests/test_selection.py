@@ -1,4 +1,4 @@
-"""Candidate poses, feasibility and optimal pose selection (hexcal.candidates, hexcal.selection).
+"""Candidate poses, feasibility and optimal pose selection (hexcal.design).
 
 Provenance: the criteria follow their definitions on eigenvalues of the information
 matrix; greedy and exchange are checked against brute force (every candidate's
@@ -13,7 +13,10 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from hexcal.candidates import (
+from hexcal.core.geometry import select_parameters
+from hexcal.core.kinematics import workspace_corners
+from hexcal.core.measurement import NoiseModel
+from hexcal.design.candidates import (
     MIN_SINGULARITY_DISTANCE,
     boundary_grid,
     box_corners,
@@ -23,13 +26,8 @@ from hexcal.candidates import (
     singularity_distance,
     workspace_box,
 )
-from hexcal.geometry import select_parameters
-from hexcal.identifiability import least_squares_covariance, mean_abs_error
-from hexcal.identification import PARAMETER_SCALE
-from hexcal.kinematics import workspace_corners
-from hexcal.measurement import NoiseModel
-from hexcal.observability import fisher_information
-from hexcal.selection import (
+from hexcal.design.identifiability import least_squares_covariance, mean_abs_error
+from hexcal.design.selection import (
     CRITERIA,
     GREEDY_RIDGE,
     SelectionError,
@@ -41,6 +39,8 @@ from hexcal.selection import (
     random_subsets,
     select_poses,
 )
+from hexcal.estimation.bounds import fisher_information
+from hexcal.estimation.identification import PARAMETER_SCALE
 
 
 def random_blocks(n_cand=60, rows=3, p=8, seed=0):

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from hexcal.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
-from hexcal.measurement import NoiseModel
-from hexcal.simulation import PaperExperiment, identify_batch, pose_errors, run_paper_experiment
+from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
+from hexcal.core.measurement import NoiseModel
+from hexcal.simulation.campaign import PaperExperiment, identify_batch, pose_errors, run_paper_experiment
 
 TRIALS = 40
 SEED = 2009
@@ -25,7 +25,7 @@ MODEL_DIFFERENCE = {"boundary": 0.010, "interior": 0.048}
 
 @pytest.fixture(scope="module")
 def experiment() -> PaperExperiment:
-    from hexcal.presets import preset
+    from hexcal.core.presets import preset
 
     return run_paper_experiment(preset("paper-hmt"), preset("paper-hmt-true"), trials=TRIALS, rng=SEED)
 

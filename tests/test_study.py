@@ -1,4 +1,4 @@
-"""Campaign studies (hexcal.study) and the `hexcal simulate` and `hexcal paper` commands' new rows."""
+"""Campaign studies and the `hexcal simulate` and `hexcal paper` commands' new rows."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from hexcal.cli import main
-from hexcal.measurement import NoiseModel
-from hexcal.presets import preset
-from hexcal.simulation import run_paper_experiment
-from hexcal.study import fixed_strategy, run_study
+from hexcal.core.measurement import NoiseModel
+from hexcal.core.presets import preset
+from hexcal.simulation.campaign import run_paper_experiment
+from hexcal.simulation.study import fixed_strategy, run_study
 
 
 @pytest.fixture(scope="module")
@@ -67,7 +67,7 @@ def test_study_is_reproducible_and_cells_do_not_depend_on_each_other():
 
 def test_fixed_strategy_measures_the_same_poses_every_trial():
     nominal, true = preset("paper-hmt"), preset("paper-hmt-true")
-    from hexcal.kinematics import workspace_corners
+    from hexcal.core.kinematics import workspace_corners
 
     poses = workspace_corners(nominal)[:16]
     cells = run_study(

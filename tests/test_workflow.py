@@ -1,6 +1,6 @@
 """Calibrating a real machine from measurement files, at the library level.
 
-The workflow: measure poses (here simulated with :func:`hexcal.simulation.simulate_measurements`,
+The workflow: measure poses (here simulated with :func:`hexcal.simulation.campaign.simulate_measurements`,
 the seed paper's protocol), write and read them as measurement files (:mod:`hexcal.io`),
 identify, check the fit for gross errors, validate on held-out poses, and compensate targets.
 
@@ -26,11 +26,9 @@ from scipy import stats
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from hexcal.conventions import rotation_matrices
-from hexcal.geometry import PARAMETER_NAMES, Geometry, select_parameters
-from hexcal.identification import identify
-from hexcal.io import read_measurements, write_measurements
-from hexcal.kinematics import (
+from hexcal.core.conventions import rotation_matrices
+from hexcal.core.geometry import PARAMETER_NAMES, Geometry, select_parameters
+from hexcal.core.kinematics import (
     forward_kinematics,
     inverse_kinematics,
     leg_lengths,
@@ -38,13 +36,15 @@ from hexcal.kinematics import (
     random_poses,
     workspace_corners,
 )
-from hexcal.likelihood import identify_gls
-from hexcal.measurement import Measurements, NoiseModel
-from hexcal.outliers import DEFAULT_ALPHA, identify_robust, pose_diagnostics
-from hexcal.presets import preset
-from hexcal.report import format_identification_report, identification_summary
-from hexcal.simulation import simulate_measurements
-from hexcal.validation import compensate, validate
+from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.presets import preset
+from hexcal.estimation.identification import identify
+from hexcal.estimation.likelihood import identify_gls
+from hexcal.estimation.robust import DEFAULT_ALPHA, identify_robust, pose_diagnostics
+from hexcal.estimation.validation import compensate, validate
+from hexcal.io import read_measurements, write_measurements
+from hexcal.report.text import format_identification_report, identification_summary
+from hexcal.simulation.campaign import simulate_measurements
 
 NOMINAL = preset("paper-hmt")
 TRUE = preset("paper-hmt-true")

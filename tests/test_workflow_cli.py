@@ -20,8 +20,18 @@ from numpy.testing import assert_allclose, assert_array_equal
 from scipy.spatial.transform import Rotation
 
 from hexcal.cli import main
-from hexcal.geometry import PARAMETER_NAMES, select_parameters
-from hexcal.identification import identify
+from hexcal.core.geometry import PARAMETER_NAMES, select_parameters
+from hexcal.core.kinematics import (
+    forward_kinematics,
+    inverse_kinematics,
+    leg_lengths,
+    leg_readings,
+    workspace_corners,
+)
+from hexcal.core.measurement import Measurements
+from hexcal.core.presets import preset
+from hexcal.estimation.identification import identify
+from hexcal.estimation.validation import validate
 from hexcal.io import (
     load_geometry,
     read_legs,
@@ -33,16 +43,6 @@ from hexcal.io import (
     write_poses,
     write_table,
 )
-from hexcal.kinematics import (
-    forward_kinematics,
-    inverse_kinematics,
-    leg_lengths,
-    leg_readings,
-    workspace_corners,
-)
-from hexcal.measurement import Measurements
-from hexcal.presets import preset
-from hexcal.validation import validate
 
 NOMINAL = preset("paper-hmt")
 TRUE = preset("paper-hmt-true")
@@ -483,7 +483,7 @@ def test_identify_leg_gains(capsys, tmp_path):
     """True gains 1 + U(±1e-3) (seed 0), 64 corners, the paper's noise: g1..g6 in the JSON.
 
     With the default estimator, and with ``--method length`` compared to the library's
-    :func:`hexcal.identification.identify` on the same file. Measured (RMS true deviation
+    :func:`hexcal.estimation.identification.identify` on the same file. Measured (RMS true deviation
     0.00072): RMS gain error 0.000084 (ml), 0.00030 (length); largest error 1.5 (ml) and 2.9
     (length) reported standard errors.
     """

@@ -14,7 +14,7 @@ quantile of its null distribution (a Bonferroni bound over the ``m`` poses):
 
 - **with a noise model** (the default of ``hexcal identify``), residuals and Jacobian are
   whitened by the covariance ``C_j`` of each pose's six residuals
-  (:func:`hexcal.observability.residual_covariances`; the pose measurement error is
+  (:func:`hexcal.estimation.bounds.residual_covariances`; the pose measurement error is
   shared by the six legs) and the fit is generalised least squares. The six whitened
   residuals are then independent with equal variance and ``F_j`` follows F(6, n - p - 6)
   under Gaussian noise, whatever the scale of the noise;
@@ -38,8 +38,10 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 from scipy.special import fdtri
 
-from hexcal.geometry import Geometry, select_parameters
-from hexcal.identification import (
+from hexcal.core.geometry import Geometry, select_parameters
+from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.estimation.bounds import residual_covariances, whitening
+from hexcal.estimation.identification import (
     PARAMETER_SCALE,
     IdentificationError,
     IdentificationResult,
@@ -51,9 +53,7 @@ from hexcal.identification import (
     identify,
     parameter_unpacker,
 )
-from hexcal.likelihood import LEG_SIGMA_FLOOR, identify_gls
-from hexcal.measurement import Measurements, NoiseModel
-from hexcal.observability import residual_covariances, whitening
+from hexcal.estimation.likelihood import LEG_SIGMA_FLOOR, identify_gls
 
 #: Family-wise false alarm rate of the outlier test over all poses of a data set.
 DEFAULT_ALPHA = 0.01
@@ -103,7 +103,7 @@ def pose_diagnostics(
     """Outlier statistics of every pose of a fit (see the module docstring).
 
     With ``noise``, ``result`` should be the generalised least-squares fit
-    (:func:`hexcal.likelihood.identify_gls`) for the statistic to be exact; without, a
+    (:func:`hexcal.estimation.likelihood.identify_gls`) for the statistic to be exact; without, a
     least-squares fit of its ``method``.
     """
     mask = np.asarray(mask, dtype=bool)

@@ -7,8 +7,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.identification import IdentificationResult
-from hexcal.simulation import PaperExperiment
+from hexcal.estimation.identification import IdentificationResult
+from hexcal.simulation.campaign import PaperExperiment
 
 #: The seed paper's Table I (mean absolute parameter error, mm) and its validation claims.
 PAPER_TABLE1 = {"before": 2.6652, "interior": 0.7236, "boundary": 0.3752}

@@ -1,6 +1,6 @@
 """Statistically efficient identification: maximum likelihood and generalised least squares.
 
-Both use a measurement noise model (:class:`hexcal.measurement.NoiseModel`): a leg
+Both use a measurement noise model (:class:`hexcal.core.measurement.NoiseModel`): a leg
 sensor error of standard deviation ``σ_leg`` on every leg length, and a pose
 measurement error of covariance ``Σ_pose`` (6 × 6, mm and rad) on every measured pose.
 
@@ -21,7 +21,7 @@ memory grow linearly with the number of poses.
 
 **Generalised least squares** (``"gls"``). The leg residuals at the measured poses,
 whitened by their propagated covariance ``C_j = J_j Σ_pose J_jᵀ + σ_leg² I``
-(:func:`hexcal.observability.residual_covariances`), recomputed once at the first
+(:func:`hexcal.estimation.bounds.residual_covariances`), recomputed once at the first
 estimate. To first order it is the same estimator as maximum likelihood.
 
 With no pose noise both reduce to least squares on the leg length residual.
@@ -37,8 +37,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from hexcal.geometry import Geometry, select_parameters
-from hexcal.identification import (
+from hexcal.core.geometry import Geometry, select_parameters
+from hexcal.core.kinematics import pose_jacobian_from_arrays
+from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.estimation.bounds import cramer_rao_covariance, residual_covariances, whitening
+from hexcal.estimation.identification import (
     PARAMETER_SCALE,
     IdentificationError,
     IdentificationResult,
@@ -52,9 +55,6 @@ from hexcal.identification import (
     identify,
     parameter_unpacker,
 )
-from hexcal.kinematics import pose_jacobian_from_arrays
-from hexcal.measurement import Measurements, NoiseModel
-from hexcal.observability import cramer_rao_covariance, residual_covariances, whitening
 
 #: Estimators by name; ``"ml"`` is the default of ``hexcal identify``.
 ESTIMATORS = ("ml", "gls", "length", "paper")

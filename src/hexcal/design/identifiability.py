@@ -1,13 +1,13 @@
 """Observability indices, identifiability and predicted accuracy of a measurement pose set.
 
-Builds on :mod:`hexcal.observability` (errors-in-variables information and the
+Builds on :mod:`hexcal.estimation.bounds` (errors-in-variables information and the
 Cramér–Rao bound) with what a user needs before measuring:
 
 - the SVD of the column-scaled identification Jacobian and the observability indices
   O1–O5 (:func:`observability_indices`);
 - the numerical rank and, by name, the parameter combinations a pose set cannot
   identify (:func:`unidentifiable_combinations`);
-- the covariance of the least-squares estimator that :func:`hexcal.identification.identify`
+- the covariance of the least-squares estimator that :func:`hexcal.estimation.identification.identify`
   actually uses (:func:`least_squares_covariance`), beside the Cramér–Rao bound;
 - the first-order map from parameter errors to platform pose errors
   (:func:`pose_error_map`) and, through it, the predicted pose error after calibration
@@ -22,17 +22,17 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.conventions import as_poses, euler_axes
-from hexcal.geometry import PARAMETER_NAMES, Geometry, select_parameters
-from hexcal.identification import PARAMETER_SCALE, RANK_RTOL, identification_jacobian
-from hexcal.kinematics import inverse_kinematics, pose_jacobian
-from hexcal.measurement import NoiseModel
-from hexcal.observability import (
+from hexcal.core.conventions import as_poses, euler_axes
+from hexcal.core.geometry import PARAMETER_NAMES, Geometry, select_parameters
+from hexcal.core.kinematics import inverse_kinematics, pose_jacobian
+from hexcal.core.measurement import NoiseModel
+from hexcal.estimation.bounds import (
     cramer_rao_covariance,
     planned_measurements,
     residual_covariances,
     whitened_jacobian,
 )
+from hexcal.estimation.identification import PARAMETER_SCALE, RANK_RTOL, identification_jacobian
 
 SCALINGS = ("norm", "parameter", "none")
 
@@ -101,7 +101,7 @@ def column_scales(
         parameter error", after Hollerbach & Wampler 1996);
         ``none``: ``d_k = 1`` (parameters in their own units).
     parameter_scale : array_like, shape (n,), optional
-        Scales for ``parameter`` (default: :data:`hexcal.identification.PARAMETER_SCALE` of
+        Scales for ``parameter`` (default: :data:`hexcal.estimation.identification.PARAMETER_SCALE` of
         the 42 joints and ``l0``, which requires ``n == 42``).
     """
     jac = np.asarray(jacobian, dtype=float)
@@ -125,7 +125,7 @@ def numerical_rank(jacobian: ArrayLike, rtol: float = RANK_RTOL) -> int:
     """Rank of a Jacobian judged on its column-normalised form.
 
     Singular values of the column-normalised Jacobian below ``rtol`` times the largest
-    count as zero; the same rule as :func:`hexcal.identification.identify`, and
+    count as zero; the same rule as :func:`hexcal.estimation.identification.identify`, and
     independent of parameter units.
     """
     jac = np.asarray(jacobian, dtype=float)
@@ -322,7 +322,7 @@ def least_squares_covariance(
     mask: ArrayLike | None = None,
     method: str = "length",
 ) -> NDArray[np.float64]:
-    """Covariance of the unweighted least-squares estimate of :func:`~hexcal.identification.identify`.
+    """Covariance of the unweighted least-squares estimate of ``identify``.
 
     Parameters
     ----------
@@ -343,14 +343,14 @@ def least_squares_covariance(
     -----
     The estimator minimises ``Σ |r_j|²`` without weights while the residual of pose
     ``j`` has covariance ``C_j = J_j Σ_pose J_jᵀ + σ_leg² I``
-    (:func:`hexcal.observability.residual_covariances`): its first-order covariance is
+    (:func:`hexcal.estimation.bounds.residual_covariances`): its first-order covariance is
     the sandwich ``H⁻¹ (Σ_j A_jᵀ C_j A_j) H⁻¹`` with ``H = Σ_j A_jᵀ A_j``. For the paper's
     residual ``|v|² - l²`` every row of leg ``i`` is the leg-length row times ``2 l_ij``.
-    The Cramér–Rao bound (:func:`hexcal.observability.cramer_rao_covariance`) is what a
+    The Cramér–Rao bound (:func:`hexcal.estimation.bounds.cramer_rao_covariance`) is what a
     noise-weighted estimator would reach; it is never larger.
 
     Evaluated at the poses the machine really reaches, it predicts the Monte Carlo error
-    of :func:`~hexcal.identification.identify` within its standard error; at planning
+    of :func:`~hexcal.estimation.identification.identify` within its standard error; at planning
     time only the commanded poses and the nominal geometry are known, and on the seed
     paper's machine (parameter errors up to 5 mm, reached poses up to 63 mm and 0.11 rad
     off) that prediction is 3-6 % high (``docs/observability.md``).
@@ -485,7 +485,7 @@ class PoseSetAnalysis:
         Parameters that take part in a lost combination.
     std_bound, std_estimator : ndarray, shape (n,)
         Predicted standard deviation of every parameter: Cramér–Rao bound and the
-        unweighted least-squares estimator of :func:`~hexcal.identification.identify`
+        unweighted least-squares estimator of :func:`~hexcal.estimation.identification.identify`
         (``method``); inf where not identifiable.
     mean_error_bound, mean_error_estimator : float
         :func:`mean_abs_error` of the two, mm (inf when any length parameter is lost).

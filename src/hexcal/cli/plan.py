@@ -117,7 +117,7 @@ def _choice(value: str, allowed: tuple[str, ...], option: str) -> str:
 
 def _mask(fit: str) -> NDArray[np.bool_]:
     from hexcal.cli import CommandError
-    from hexcal.geometry import select_parameters
+    from hexcal.core.geometry import select_parameters
 
     try:
         return select_parameters(fit)
@@ -145,8 +145,8 @@ def _number(text: str, token: str, low: int) -> int:
 
 def _candidates(spec: str, geometry: Any, seed: int) -> tuple[NDArray[np.float64], list[str]]:
     """Candidate poses and ids of a spec like ``corners+grid:3+random:1000+file.csv``."""
-    from hexcal.candidates import candidate_poses
     from hexcal.cli import CommandError
+    from hexcal.design.candidates import candidate_poses
     from hexcal.io import read_poses
 
     tokens = [t.strip() for t in spec.split("+") if t.strip()]
@@ -195,8 +195,8 @@ def _feasible(
 
     The warning is printed once the command has succeeded, so that a failure stays one line.
     """
-    from hexcal.candidates import MIN_SINGULARITY_DISTANCE, check_feasibility
     from hexcal.cli import CommandError, _id_list
+    from hexcal.design.candidates import MIN_SINGULARITY_DISTANCE, check_feasibility
 
     threshold = MIN_SINGULARITY_DISTANCE if min_distance is None else min_distance
     if not (math.isfinite(threshold) and threshold >= 0):
@@ -227,7 +227,7 @@ def _fmt(value: float, unit: str = "mm", digits: int = 4) -> str:
 
 def cmd_errormap(args: argparse.Namespace) -> None:
     from hexcal.cli import CommandError, _geometry
-    from hexcal.errormap import claims, error_maps, format_claims
+    from hexcal.design.errormap import claims, error_maps, format_claims
     from hexcal.io import atomic_write, write_table
 
     geometry = _geometry(args.geometry, args.euler)
@@ -263,7 +263,7 @@ def cmd_errormap(args: argparse.Namespace) -> None:
         method=method,
     )
     summary = claims(maps)
-    from hexcal.plotting import plot_error_angles, plot_error_lines
+    from hexcal.report.figures import plot_error_angles, plot_error_lines
 
     out.mkdir(exist_ok=True)
     pose_cols = ["x", "y", "z", "a", "b", "c"]
@@ -428,11 +428,11 @@ def format_analysis(analysis: Any, fit: str, n_test: int) -> str:
 
 
 def cmd_observability(args: argparse.Namespace) -> None:
-    from hexcal.candidates import check_feasibility
     from hexcal.cli import CommandError, _check_outputs, _geometry, _id_list
-    from hexcal.identifiability import SCALINGS, analyse_poses
+    from hexcal.core.kinematics import workspace_corners
+    from hexcal.design.candidates import check_feasibility
+    from hexcal.design.identifiability import SCALINGS, analyse_poses
     from hexcal.io import atomic_write, read_poses
-    from hexcal.kinematics import workspace_corners
 
     _check_outputs(args.json)
     geometry = _geometry(args.geometry, args.euler)
@@ -483,8 +483,8 @@ def cmd_candidates(args: argparse.Namespace) -> None:
 
 def _predicted(geometry: Any, pose_sets: NDArray[np.float64], noise: Any, mask: Any) -> tuple[float, float]:
     """Mean over pose sets (T, n, 6) of the predicted mean absolute error: estimator, bound."""
-    from hexcal.identifiability import least_squares_covariance, mean_abs_error
-    from hexcal.observability import cramer_rao_covariance
+    from hexcal.design.identifiability import least_squares_covariance, mean_abs_error
+    from hexcal.estimation.bounds import cramer_rao_covariance
 
     est = [mean_abs_error(least_squares_covariance(geometry, s, noise, mask), mask) for s in pose_sets]
     bound = [mean_abs_error(cramer_rao_covariance(geometry, s, noise, mask), mask) for s in pose_sets]
@@ -494,11 +494,22 @@ def _predicted(geometry: Any, pose_sets: NDArray[np.float64], noise: Any, mask: 
 def cmd_select(args: argparse.Namespace) -> None:
     import time
 
-    from hexcal.candidates import MIN_SINGULARITY_DISTANCE, box_corners, check_feasibility, random_interior
     from hexcal.cli import CommandError, _check_outputs, _geometry
-    from hexcal.identification import MIN_POSES
+    from hexcal.design.candidates import (
+        MIN_SINGULARITY_DISTANCE,
+        box_corners,
+        check_feasibility,
+        random_interior,
+    )
+    from hexcal.design.selection import (
+        CRITERIA,
+        describe_value,
+        information_blocks,
+        random_subsets,
+        select_poses,
+    )
+    from hexcal.estimation.identification import MIN_POSES
     from hexcal.io import atomic_write, write_poses
-    from hexcal.selection import CRITERIA, describe_value, information_blocks, random_subsets, select_poses
 
     _check_outputs(args.out, args.json)
     geometry = _geometry(args.geometry, args.euler)
@@ -544,7 +555,7 @@ def cmd_select(args: argparse.Namespace) -> None:
             f"{criterion}-optimal from {len(kept)} feasible candidates ({args.candidates}), seed {args.seed}"
         )
     elapsed = time.perf_counter() - start
-    from hexcal.identifiability import analyse_poses
+    from hexcal.design.identifiability import analyse_poses
 
     analysis = analyse_poses(geometry, poses, noise, mask)
     if analysis.rank < len(analysis.names):

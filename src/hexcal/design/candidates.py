@@ -14,9 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.conventions import as_poses
-from hexcal.geometry import Geometry
-from hexcal.kinematics import inverse_kinematics, pose_jacobian
+from hexcal.core.conventions import as_poses
+from hexcal.core.geometry import Geometry
+from hexcal.core.kinematics import inverse_kinematics, pose_jacobian
 
 #: Default minimum of :func:`singularity_distance`. At 0.05 a leg length error of 1 µm can
 #: move points of the platform by up to 20 µm; on the seed paper's machine the value is
@@ -48,7 +48,7 @@ def workspace_box(geometry: Geometry) -> NDArray[np.float64]:
 
 def box_corners(box: ArrayLike) -> NDArray[np.float64]:
     """The 64 corners of a box, shape (64, 6), in the order of
-    :func:`hexcal.kinematics.workspace_corners` (x is the most significant bit)."""
+    :func:`hexcal.core.kinematics.workspace_corners` (x is the most significant bit)."""
     b = _box(box)
     bits = (np.arange(64)[:, None] >> np.arange(5, -1, -1)) & 1
     return np.where(bits == 1, b[:, 1], b[:, 0])

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hexcal.geometry import Geometry
+from hexcal.core.geometry import Geometry
 
 # Rows: s_i (x, y, z), u_i (x, y, z), l0_i; mm.
 _PAPER_NOMINAL = np.array(

@@ -19,16 +19,16 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.conventions import as_poses
-from hexcal.geometry import Geometry
-from hexcal.kinematics import (
+from hexcal.core.conventions import as_poses
+from hexcal.core.geometry import Geometry
+from hexcal.core.kinematics import (
     forward_kinematics,
     inverse_kinematics,
     leg_lengths,
     leg_readings,
 )
-from hexcal.measurement import Measurements
-from hexcal.simulation import pose_errors
+from hexcal.core.measurement import Measurements
+from hexcal.simulation.campaign import pose_errors
 
 
 class ValidationError(ValueError):

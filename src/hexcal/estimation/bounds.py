@@ -7,8 +7,8 @@ sensor error of variance ``σ_leg²``. Linearised, the residual of pose ``j`` is
 
     r_j = A_j δθ + J_j e_pose + e_leg,
 
-with ``A_j`` (6 × n) the identification Jacobian (:func:`hexcal.identification.identification_jacobian`)
-and ``J_j`` (6 × 6) the pose Jacobian (:func:`hexcal.kinematics.pose_jacobian`). Its
+with ``A_j`` (6 × n) the identification Jacobian (``identification_jacobian``)
+and ``J_j`` (6 × 6) the pose Jacobian (:func:`hexcal.core.kinematics.pose_jacobian`). Its
 covariance is ``C_j = J_j Σ_pose J_jᵀ + σ_leg² I``, and the Fisher information of the
 parameters, with the six true pose values of every measurement eliminated as
 nuisance parameters (errors in variables), is
@@ -25,10 +25,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.geometry import Geometry, select_parameters
-from hexcal.identification import identification_jacobian
-from hexcal.kinematics import inverse_kinematics, leg_readings, pose_jacobian
-from hexcal.measurement import Measurements, NoiseModel
+from hexcal.core.geometry import Geometry, select_parameters
+from hexcal.core.kinematics import inverse_kinematics, leg_readings, pose_jacobian
+from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.estimation.identification import identification_jacobian
 
 
 def planned_measurements(geometry: Geometry, poses: ArrayLike) -> Measurements:

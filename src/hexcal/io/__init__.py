@@ -24,9 +24,9 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from hexcal.geometry import Geometry, GeometryError
-from hexcal.measurement import Measurements
-from hexcal.presets import PRESETS, preset
+from hexcal.core.geometry import Geometry, GeometryError
+from hexcal.core.measurement import Measurements
+from hexcal.core.presets import PRESETS, preset
 
 #: A quaternion whose norm differs from 1 by more than this is refused (others are
 #: normalised). 1e-3 admits instruments that print 4 decimals and catches a wrong column.

@@ -28,10 +28,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.conventions import orientation_error
-from hexcal.geometry import N_BASE_PARAMETERS, Geometry, select_parameters
-from hexcal.identification import IdentificationError
-from hexcal.kinematics import (
+from hexcal.core.conventions import orientation_error
+from hexcal.core.geometry import N_BASE_PARAMETERS, Geometry, select_parameters
+from hexcal.core.kinematics import (
     forward_kinematics_from_arrays,
     inverse_kinematics,
     leg_readings,
@@ -39,9 +38,10 @@ from hexcal.kinematics import (
     random_poses,
     workspace_corners,
 )
-from hexcal.likelihood import estimate
-from hexcal.measurement import Measurements, NoiseModel
-from hexcal.observability import bound_mean_abs_error
+from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.estimation.bounds import bound_mean_abs_error
+from hexcal.estimation.identification import IdentificationError
+from hexcal.estimation.likelihood import estimate
 
 Progress = Callable[[int, int], None]
 
@@ -160,7 +160,7 @@ def identify_batch(
 ) -> NDArray[np.float64]:
     """Identify many data sets, in ``jobs`` processes (``None``: all cores).
 
-    ``method`` is any of :data:`hexcal.likelihood.ESTIMATORS`; ``noise`` is the noise
+    ``method`` is any of :data:`hexcal.estimation.likelihood.ESTIMATORS`; ``noise`` is the noise
     model the ``ml`` and ``gls`` estimators assume. Returns the identified 42-vectors,
     shape ``(len(datasets), 42)``, with NaN rows where an identification failed.
     """
@@ -293,7 +293,7 @@ def run_paper_experiment(
         Further rows on the same trials: ``strategy`` is ``"interior"`` or ``"boundary"``
         (the very same data as those rows) or ``"selected"`` (the fixed
         ``selected_poses`` measured with fresh noise in every trial); ``method`` any
-        estimator of :data:`hexcal.likelihood.ESTIMATORS` (``ml`` and ``gls`` assume
+        estimator of :data:`hexcal.estimation.likelihood.ESTIMATORS` (``ml`` and ``gls`` assume
         ``noise``).
     selected_poses : ndarray, shape (n, 6), optional
         Poses of the ``"selected"`` strategy (e.g. optimally selected ones).

@@ -9,7 +9,7 @@ parameter draws at once and the numbers that test the two claims (:func:`claims`
 
 The controller commands the nominal leg readings of a target pose; a machine with
 parameter errors ``δθ`` reaches another pose. To first order the pose error is
-``E δθ`` with ``E = -J_pose⁻¹ A`` (:func:`hexcal.identifiability.pose_error_map`); with
+``E δθ`` with ``E = -J_pose⁻¹ A`` (:func:`hexcal.design.identifiability.pose_error_map`); with
 ``method="exact"`` the reached pose is the forward kinematics of the perturbed machine.
 Position error is ``|δp|`` (mm); orientation error the angle of the rotation between the
 target and the reached orientation (rad).
@@ -22,12 +22,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.candidates import box_corners, random_interior, workspace_box
-from hexcal.conventions import POSE_NAMES, as_poses, orientation_error
-from hexcal.geometry import Geometry, select_parameters
-from hexcal.identifiability import pose_error_map, rotation_vector_map
-from hexcal.identification import PARAMETER_SCALE
-from hexcal.kinematics import forward_kinematics_from_arrays, inverse_kinematics
+from hexcal.core.conventions import POSE_NAMES, as_poses, orientation_error
+from hexcal.core.geometry import Geometry, select_parameters
+from hexcal.core.kinematics import forward_kinematics_from_arrays, inverse_kinematics
+from hexcal.design.candidates import box_corners, random_interior, workspace_box
+from hexcal.design.identifiability import pose_error_map, rotation_vector_map
+from hexcal.estimation.identification import PARAMETER_SCALE
 
 LINE_AXES = ("x", "y", "z")
 ANGLE_PAIRS = (("a", "b"), ("a", "c"), ("b", "c"))
@@ -43,7 +43,7 @@ def parameter_error_draws(
     """Random parameter errors, uniform in ``±amplitude`` characteristic units, shape (D, n).
 
     ``amplitude`` is in mm for joints and ``l0`` (the paper's 0.1 mm); gains get
-    ``amplitude`` times their scale (1e-3, :data:`hexcal.identification.PARAMETER_SCALE`).
+    ``amplitude`` times their scale (1e-3, :data:`hexcal.estimation.identification.PARAMETER_SCALE`).
     """
     mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
     if int(n_draws) < 1:
@@ -350,7 +350,7 @@ def error_maps(
     for name, poses in (("corners", box_corners(box)), ("interior", random_interior(box, interior, gen))):
         pos, ang = _mean_errors(geometry, poses, sample, mask, method)
         refs[name] = {"poses": poses, "position": pos, "orientation": ang}
-    from hexcal.identifiability import parameter_names
+    from hexcal.design.identifiability import parameter_names
 
     return ErrorMaps(
         lines=lines,

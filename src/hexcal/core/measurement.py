@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.conventions import as_poses
+from hexcal.core.conventions import as_poses
 
 
 @dataclass(frozen=True, eq=False)

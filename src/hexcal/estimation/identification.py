@@ -21,14 +21,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from hexcal.conventions import as_poses, rotation_matrices
-from hexcal.geometry import (
+from hexcal.core.conventions import as_poses, rotation_matrices
+from hexcal.core.geometry import (
     N_ALL_PARAMETERS,
     PARAMETER_NAMES,
     Geometry,
     select_parameters,
 )
-from hexcal.measurement import Measurements, NoiseModel
+from hexcal.core.measurement import Measurements, NoiseModel
 
 METHODS = ("paper", "length")
 
@@ -206,7 +206,7 @@ class IdentificationResult:
     ids : tuple of str
         Ids of the poses used.
     bound : ndarray, shape (n,), optional
-        Cramér–Rao σ of each parameter under ``noise`` (see :mod:`hexcal.likelihood`).
+        Cramér–Rao σ of each parameter under ``noise`` (see :mod:`hexcal.estimation.likelihood`).
     noise : NoiseModel, optional
         The noise model used by the estimator or the bound.
     """
@@ -311,7 +311,7 @@ def identify(
     method : {"paper", "length"}
         The residual (see the module docstring).
     mask : array_like of bool, shape (48,), optional
-        Parameters to vary; default joints and l0 (:func:`hexcal.geometry.select_parameters`).
+        Parameters to vary; default joints and l0 (:func:`hexcal.core.geometry.select_parameters`).
     xtol : float
         Relative step tolerance of the solver.
     max_nfev : int, optional

@@ -15,14 +15,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.conventions import (
+from hexcal.core.conventions import (
     as_poses,
     check_euler,
     rotation_and_axes_t,
     rotation_matrices,
     rotation_matrices_t,
 )
-from hexcal.geometry import Geometry
+from hexcal.core.geometry import Geometry
 
 #: Default convergence tolerance of the forward kinematics, mm of leg length.
 FK_TOLERANCE = 1e-9
@@ -152,7 +152,7 @@ def pose_jacobian_from_arrays(
     Notes
     -----
     With ``n_i`` the unit leg vector and ``w_k`` the base-frame axis of the k-th
-    elementary rotation (:func:`hexcal.conventions.euler_axes`),
+    elementary rotation (:func:`hexcal.core.conventions.euler_axes`),
     ``d l_i / d o = n_i`` and ``d l_i / d θ_k = w_k · (R s_i × n_i)``.
     """
     poses = as_poses(poses)

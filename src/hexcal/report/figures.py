@@ -10,9 +10,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hexcal.errormap import AngleMap, LineMap
-from hexcal.geometry import PARAMETER_NAMES
-from hexcal.simulation import PaperExperiment
+from hexcal.core.geometry import PARAMETER_NAMES
+from hexcal.design.errormap import AngleMap, LineMap
+from hexcal.simulation.campaign import PaperExperiment
 
 
 def _save(fig: plt.Figure, path: str | os.PathLike[str]) -> None:
@@ -67,7 +67,7 @@ def plot_study(cells: list, path: str | os.PathLike[str]) -> None:
     """Mean absolute parameter error against the number of poses, per strategy and method.
 
     Dashed lines are the Cramér–Rao bounds of the same pose strategies (one per strategy
-    and noise level). ``cells`` are :class:`hexcal.study.StudyCell` objects.
+    and noise level). ``cells`` are :class:`hexcal.simulation.study.StudyCell` objects.
     """
     rows = [c.row() for c in cells]
     fig, ax = plt.subplots(figsize=(8, 5))

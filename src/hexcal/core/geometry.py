@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.conventions import DEFAULT_EULER, N_LEGS, POSE_NAMES, check_euler
+from hexcal.core.conventions import DEFAULT_EULER, N_LEGS, POSE_NAMES, check_euler
 
 PARAMETER_NAMES: tuple[str, ...] = (
     tuple(f"u{i}.{ax}" for i in range(1, 7) for ax in "xyz")

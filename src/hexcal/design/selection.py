@@ -3,7 +3,7 @@
 The information of a pose set is additive over its poses: with ``B_j`` (6 × n) the
 noise-whitened identification Jacobian of pose ``j`` (:func:`information_blocks`), the
 Fisher information of a set ``S`` is ``F(S) = Σ_{j∈S} B_jᵀ B_j``
-(:func:`hexcal.observability.fisher_information`, errors in variables). Adding or
+(:func:`hexcal.estimation.bounds.fisher_information`, errors in variables). Adding or
 removing a pose is a rank-6 update, so the effect of every candidate on a criterion is
 computed at once, vectorised over the candidates, through 6 × 6 matrices:
 
@@ -39,10 +39,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.geometry import Geometry, select_parameters
-from hexcal.identification import PARAMETER_SCALE
-from hexcal.measurement import NoiseModel
-from hexcal.observability import whitened_jacobian
+from hexcal.core.geometry import Geometry, select_parameters
+from hexcal.core.measurement import NoiseModel
+from hexcal.estimation.bounds import whitened_jacobian
+from hexcal.estimation.identification import PARAMETER_SCALE
 
 CRITERIA = ("D", "A", "E", "O4")
 
@@ -72,7 +72,7 @@ def information_blocks(
     """Per-pose noise-whitened identification Jacobians ``B_j``, shape (m, 6, n).
 
     Columns are the selected parameters in units of their characteristic scale
-    (:data:`hexcal.identification.PARAMETER_SCALE`: 1 mm for joints and ``l0``, 1e-3 for
+    (:data:`hexcal.estimation.identification.PARAMETER_SCALE`: 1 mm for joints and ``l0``, 1e-3 for
     gains), so ``Σ_j B_jᵀ B_j`` is the Fisher information in those units and its inverse
     the Cramér–Rao bound (mm² for the length parameters).
     """

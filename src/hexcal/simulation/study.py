@@ -1,10 +1,10 @@
 """Monte Carlo studies of calibration campaigns: methods × pose strategies × sizes × noise.
 
 For every combination of a pose strategy, a number of poses and a noise level, ``T``
-trials are simulated with the protocol of :mod:`hexcal.simulation` (each trial on its
+trials are simulated with the protocol of :mod:`hexcal.simulation.campaign` (each trial on its
 own child random generator); every estimator identifies the same data. Reported per
 cell: the mean absolute parameter error, its Cramér–Rao bound
-(:func:`hexcal.observability.bound_mean_abs_error`), the efficiency error / bound, and
+(:func:`hexcal.estimation.bounds.bound_mean_abs_error`), the efficiency error / bound, and
 the validation pose error on random workspace poses when the controller uses the
 identified parameters.
 """
@@ -18,11 +18,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.geometry import Geometry
-from hexcal.kinematics import inverse_kinematics, leg_readings, random_poses, workspace_corners
-from hexcal.measurement import Measurements, NoiseModel
-from hexcal.observability import bound_mean_abs_error
-from hexcal.simulation import MachineBatch, identify_batch, pose_errors, random_machines
+from hexcal.core.geometry import Geometry
+from hexcal.core.kinematics import inverse_kinematics, leg_readings, random_poses, workspace_corners
+from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.estimation.bounds import bound_mean_abs_error
+from hexcal.simulation.campaign import MachineBatch, identify_batch, pose_errors, random_machines
 
 #: Pose strategies: a function ``(nominal, n, rng) -> (n, 6)`` poses for one trial.
 PoseStrategy = Callable[[Geometry, int, np.random.Generator], NDArray[np.float64]]
@@ -113,7 +113,7 @@ def run_study(
     true : Geometry, optional
         The real machine; default nominal plus uniform ±``parameter_error`` mm per trial.
     methods : sequence of str
-        Estimators (:data:`hexcal.likelihood.ESTIMATORS`).
+        Estimators (:data:`hexcal.estimation.likelihood.ESTIMATORS`).
     strategies : dict of name to strategy, optional
         Default ``corners`` and ``interior`` (:data:`STRATEGIES`).
     pose_counts : sequence of int

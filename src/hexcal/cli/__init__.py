@@ -19,8 +19,18 @@ from typing import Any
 
 import numpy as np
 
-from hexcal.geometry import Geometry, GeometryError
-from hexcal.identification import IdentificationError
+from hexcal.core.geometry import Geometry, GeometryError
+from hexcal.core.kinematics import (
+    forward_kinematics,
+    inverse_kinematics,
+    is_feasible,
+    leg_lengths,
+    leg_readings,
+)
+from hexcal.core.measurement import NoiseModel
+from hexcal.core.presets import PRESETS
+from hexcal.estimation.identification import IdentificationError
+from hexcal.estimation.validation import ValidationError
 from hexcal.io import (
     InputError,
     atomic_write,
@@ -31,17 +41,7 @@ from hexcal.io import (
     write_legs,
     write_poses,
 )
-from hexcal.kinematics import (
-    forward_kinematics,
-    inverse_kinematics,
-    is_feasible,
-    leg_lengths,
-    leg_readings,
-)
-from hexcal.measurement import NoiseModel
-from hexcal.presets import PRESETS
-from hexcal.simulation import SimulationError
-from hexcal.validation import ValidationError
+from hexcal.simulation.campaign import SimulationError
 
 
 class CommandError(Exception):
@@ -172,11 +172,11 @@ def _noise(args: argparse.Namespace) -> NoiseModel:
 
 
 def cmd_identify(args: argparse.Namespace) -> None:
-    from hexcal.geometry import select_parameters
+    from hexcal.core.geometry import select_parameters
+    from hexcal.estimation.likelihood import estimate, identify_gls
+    from hexcal.estimation.robust import identify_robust, pose_diagnostics
     from hexcal.io import read_measurements
-    from hexcal.likelihood import estimate, identify_gls
-    from hexcal.outliers import identify_robust, pose_diagnostics
-    from hexcal.report import format_identification_report, identification_summary
+    from hexcal.report.text import format_identification_report, identification_summary
 
     _check_outputs(args.out, args.report, args.json)
     nominal = _geometry(args.geometry, args.euler)
@@ -218,9 +218,9 @@ def cmd_identify(args: argparse.Namespace) -> None:
 
 
 def cmd_validate(args: argparse.Namespace) -> None:
+    from hexcal.estimation.validation import validate
     from hexcal.io import read_measurements, write_table
-    from hexcal.report import format_validation
-    from hexcal.validation import validate
+    from hexcal.report.text import format_validation
 
     _check_outputs(args.out)
     geometry = _geometry(args.geometry, args.euler)
@@ -251,7 +251,7 @@ def cmd_validate(args: argparse.Namespace) -> None:
 
 
 def cmd_compensate(args: argparse.Namespace) -> None:
-    from hexcal.validation import compensate
+    from hexcal.estimation.validation import compensate
 
     _check_outputs(args.out, args.corrected_poses)
     if args.corrected_poses and not args.nominal:
@@ -282,7 +282,7 @@ def cmd_compensate(args: argparse.Namespace) -> None:
 
 def cmd_synthesize(args: argparse.Namespace) -> None:
     from hexcal.io import write_measurements
-    from hexcal.simulation import simulate_measurements
+    from hexcal.simulation.campaign import simulate_measurements
 
     _check_outputs(args.out)
     nominal = _geometry(args.nominal, args.euler)
@@ -311,8 +311,8 @@ def _int_list(text: str, option: str) -> list[int]:
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
-    from hexcal.likelihood import ESTIMATORS
-    from hexcal.study import STRATEGIES, fixed_strategy, format_study, run_study
+    from hexcal.estimation.likelihood import ESTIMATORS
+    from hexcal.simulation.study import STRATEGIES, fixed_strategy, format_study, run_study
 
     nominal = _geometry(args.geometry)
     true = None if args.true == "random" else _geometry(args.true)
@@ -372,7 +372,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     print(format_study(cells))
     if out is not None:
         from hexcal.io import write_table
-        from hexcal.plotting import plot_study
+        from hexcal.report.figures import plot_study
 
         out.mkdir(parents=True, exist_ok=True)
         rows = [c.row() for c in cells]
@@ -424,8 +424,8 @@ def _optimal_poses(nominal: Geometry, n: int, noise: NoiseModel, seed: int) -> n
     A-optimality minimises the sum of the parameter variances, the criterion closest to
     the mean absolute parameter error that Table I reports.
     """
-    from hexcal.candidates import candidate_poses, check_feasibility
-    from hexcal.selection import information_blocks, select_poses
+    from hexcal.design.candidates import candidate_poses, check_feasibility
+    from hexcal.design.selection import information_blocks, select_poses
 
     candidates = candidate_poses(nominal, "grid")
     candidates = candidates[check_feasibility(nominal, candidates).feasible]
@@ -434,8 +434,8 @@ def _optimal_poses(nominal: Geometry, n: int, noise: NoiseModel, seed: int) -> n
 
 
 def cmd_paper(args: argparse.Namespace) -> None:
-    from hexcal.report import format_paper_summary, paper_summary
-    from hexcal.simulation import run_paper_experiment
+    from hexcal.report.text import format_paper_summary, paper_summary
+    from hexcal.simulation.campaign import run_paper_experiment
 
     nominal = _geometry(args.geometry)
     true = None if args.true == "random" else _geometry(args.true)
@@ -481,7 +481,7 @@ def cmd_paper(args: argparse.Namespace) -> None:
     print(format_paper_summary(summary))
     print(f"({elapsed:.1f} s)")
     if out is not None:
-        from hexcal.plotting import plot_parameter_errors, plot_validation_errors
+        from hexcal.report.figures import plot_parameter_errors, plot_validation_errors
 
         out.mkdir(parents=True, exist_ok=True)
         plot_parameter_errors(experiment, out / "fig10_parameter_errors.png")
@@ -595,7 +595,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--euler", help="Euler sequence of the angles (default: the nominal geometry's)")
     p.set_defaults(func=cmd_synthesize)
 
-    from hexcal.cli_plan import register
+    from hexcal.cli.plan import register
 
     register(sub, geometry_help)
 
