@@ -17,33 +17,33 @@ CALLER_ENV = dict(os.environ)
 for _var in THREAD_VARS:
     os.environ[_var] = "1"
 
-import argparse  # noqa: E402
-import gc  # noqa: E402
-import platform  # noqa: E402
-import re  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from collections.abc import Callable  # noqa: E402
-from importlib.metadata import version  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import gc
+import platform
+import re
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from importlib.metadata import version
+from pathlib import Path
 
-import numpy as np  # noqa: E402
-import scipy  # noqa: E402
+import numpy as np
+import scipy
 
-from hexcal.core.geometry import Geometry  # noqa: E402
-from hexcal.core.kinematics import (  # noqa: E402
+from hexcal.core.geometry import Geometry
+from hexcal.core.kinematics import (
     FK_TOLERANCE,
     forward_kinematics,
     inverse_kinematics,
     leg_lengths,
     leg_readings,
-    random_poses,
-    workspace_corners,
 )
-from hexcal.core.measurement import Measurements, NoiseModel  # noqa: E402
-from hexcal.core.presets import preset  # noqa: E402
-from hexcal.estimation.identification import IdentificationError, identify  # noqa: E402
+from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.presets import preset
+from hexcal.core.workspace import random_poses, workspace_corners
+from hexcal.errors import IdentificationError
+from hexcal.estimation.identification import identify
 
 BENCHMARKS = ("ik", "fk", "identify", "ml", "identify-cli", "cli")
 SEED = 20240601

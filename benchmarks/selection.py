@@ -14,14 +14,15 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"  # single core, set before numpy loads
 
-import argparse  # noqa: E402
-import time  # noqa: E402
+import argparse
+import time
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from hexcal.core.presets import preset  # noqa: E402
-from hexcal.design.candidates import check_feasibility, random_interior  # noqa: E402
-from hexcal.design.selection import CRITERIA, information_blocks, select_poses  # noqa: E402
+from hexcal.core.presets import preset
+from hexcal.core.workspace import random_interior
+from hexcal.design.candidates import check_feasibility
+from hexcal.design.selection import CRITERIA, information_blocks, select_poses
 
 TARGET_SECONDS = 2.0
 TARGET_CANDIDATES = 10_000

@@ -30,25 +30,27 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
-import argparse  # noqa: E402
-import json  # noqa: E402
-import time  # noqa: E402
-from collections.abc import Callable  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
 
-import numpy as np  # noqa: E402
-from numpy.typing import NDArray  # noqa: E402
+import numpy as np
+from numpy.typing import NDArray
 
-from hexcal.core.geometry import Geometry  # noqa: E402
-from hexcal.core.measurement import NoiseModel  # noqa: E402
-from hexcal.core.presets import preset  # noqa: E402
-from hexcal.design.candidates import candidate_poses, random_interior  # noqa: E402
-from hexcal.design.errormap import claims, error_maps, format_claims  # noqa: E402
-from hexcal.design.identifiability import least_squares_covariance, mean_abs_error  # noqa: E402
-from hexcal.design.selection import information_blocks, random_subsets, select_poses  # noqa: E402
-from hexcal.estimation.bounds import cramer_rao_covariance  # noqa: E402
-from hexcal.estimation.identification import IdentificationError, identify  # noqa: E402
-from hexcal.simulation.campaign import simulate_measurements  # noqa: E402
+from hexcal.core.geometry import Geometry
+from hexcal.core.measurement import NoiseModel
+from hexcal.core.presets import preset
+from hexcal.core.workspace import random_interior
+from hexcal.design.candidates import candidate_poses
+from hexcal.design.errormap import claims, error_maps, format_claims
+from hexcal.design.identifiability import least_squares_covariance, mean_abs_error
+from hexcal.design.selection import information_blocks, random_subsets, select_poses
+from hexcal.errors import IdentificationError
+from hexcal.estimation.bounds import cramer_rao_covariance
+from hexcal.estimation.identification import identify
+from hexcal.simulation.campaign import simulate_measurements
 
 N_POSES = 15
 GROWTH_PREDICTED = (7, 8, 9, 10, 12, 15, 20, 25, 30, 35, 40, 45, 50, 55, 60, 64)

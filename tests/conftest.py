@@ -19,15 +19,10 @@ import numpy as np
 import pytest
 
 from hexcal.core.geometry import Geometry
-from hexcal.core.kinematics import (
-    forward_kinematics,
-    inverse_kinematics,
-    leg_lengths,
-    leg_readings,
-    workspace_corners,
-)
+from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
 from hexcal.core.measurement import Measurements, NoiseModel
 from hexcal.core.presets import preset
+from hexcal.core.workspace import workspace_corners
 
 
 def simulate_measurements(

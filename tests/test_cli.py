@@ -22,8 +22,9 @@ import yaml
 from numpy.testing import assert_allclose, assert_array_equal
 
 from hexcal.cli import main
-from hexcal.core.kinematics import inverse_kinematics, leg_readings, workspace_corners
+from hexcal.core.kinematics import inverse_kinematics, leg_readings
 from hexcal.core.presets import preset
+from hexcal.core.workspace import workspace_corners
 from hexcal.io import load_geometry, read_legs, read_poses, save_geometry, write_poses, write_table
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from hexcal.core.geometry import select_parameters
+from hexcal.core.parameters import select_parameters
 from hexcal.design.errormap import (
     angle_grid_poses,
     claims,

@@ -13,17 +13,17 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from numpy.testing import assert_allclose, assert_array_equal
 
-from hexcal.core.geometry import (
+from hexcal.core.geometry import Geometry
+from hexcal.core.parameters import (
     N_ALL_PARAMETERS,
     N_BASE_PARAMETERS,
     PARAMETER_GROUPS,
     PARAMETER_LEG,
     PARAMETER_NAMES,
-    Geometry,
-    GeometryError,
     select_parameters,
 )
 from hexcal.core.presets import PRESETS, preset
+from hexcal.errors import GeometryError
 
 ARRAY_FIELDS = (
     "base_joints",

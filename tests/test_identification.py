@@ -7,13 +7,13 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy import stats
 
-from hexcal.core.geometry import PARAMETER_NAMES, select_parameters
-from hexcal.core.kinematics import inverse_kinematics, leg_readings, random_poses
+from hexcal.core.kinematics import inverse_kinematics, leg_readings
 from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.parameters import PARAMETER_NAMES, PARAMETER_SCALE, select_parameters
+from hexcal.core.workspace import random_poses
+from hexcal.errors import IdentificationError
 from hexcal.estimation.identification import (
     METHODS,
-    PARAMETER_SCALE,
-    IdentificationError,
     identification_jacobian,
     identification_residuals,
     identify,

@@ -18,10 +18,9 @@ from scipy.spatial.transform import Rotation
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.presets import PRESETS, preset
+from hexcal.errors import InputError, InputWarning
 from hexcal.io import (
     QUATERNION_NORM_TOLERANCE,
-    InputError,
-    InputWarning,
     atomic_write,
     load_geometry,
     read_legs,

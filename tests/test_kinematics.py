@@ -15,15 +15,13 @@ from hexcal.core.conventions import orientation_error
 from hexcal.core.kinematics import (
     forward_kinematics,
     inverse_kinematics,
-    is_feasible,
     leg_lengths,
     leg_readings,
     leg_vectors,
     pose_jacobian,
-    random_poses,
-    workspace_corners,
 )
 from hexcal.core.presets import preset
+from hexcal.core.workspace import is_feasible, random_poses, workspace_corners
 
 PAPER = preset("paper-hmt")
 BATCH_SHAPES = [(), (4,), (2, 3)]

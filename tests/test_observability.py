@@ -19,9 +19,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from hexcal.core.geometry import PARAMETER_NAMES, select_parameters
-from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, workspace_corners
+from hexcal.core.kinematics import forward_kinematics, inverse_kinematics
 from hexcal.core.measurement import NoiseModel
+from hexcal.core.parameters import PARAMETER_NAMES, select_parameters
+from hexcal.core.workspace import workspace_corners
 from hexcal.design.identifiability import (
     analyse_poses,
     column_scales,
@@ -37,8 +38,9 @@ from hexcal.design.identifiability import (
     rotation_vector_map,
     unidentifiable_combinations,
 )
+from hexcal.errors import IdentificationError
 from hexcal.estimation.bounds import cramer_rao_covariance, residual_covariances
-from hexcal.estimation.identification import IdentificationError, identify
+from hexcal.estimation.identification import identify
 
 NAMES42 = PARAMETER_NAMES[:42]
 

@@ -15,8 +15,8 @@ import yaml
 from numpy.testing import assert_allclose
 
 from hexcal.cli import main
-from hexcal.core.kinematics import workspace_corners
 from hexcal.core.presets import preset
+from hexcal.core.workspace import workspace_corners
 from hexcal.design.identifiability import analyse_poses
 from hexcal.io import read_poses, read_table, write_poses
 

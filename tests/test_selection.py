@@ -13,24 +13,20 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from hexcal.core.geometry import select_parameters
-from hexcal.core.kinematics import workspace_corners
 from hexcal.core.measurement import NoiseModel
+from hexcal.core.parameters import PARAMETER_SCALE, select_parameters
+from hexcal.core.workspace import box_corners, random_interior, workspace_box, workspace_corners
 from hexcal.design.candidates import (
     MIN_SINGULARITY_DISTANCE,
     boundary_grid,
-    box_corners,
     candidate_poses,
     check_feasibility,
-    random_interior,
     singularity_distance,
-    workspace_box,
 )
 from hexcal.design.identifiability import least_squares_covariance, mean_abs_error
 from hexcal.design.selection import (
     CRITERIA,
     GREEDY_RIDGE,
-    SelectionError,
     criterion_value,
     exchange_selection,
     greedy_selection,
@@ -39,8 +35,8 @@ from hexcal.design.selection import (
     random_subsets,
     select_poses,
 )
+from hexcal.errors import SelectionError
 from hexcal.estimation.bounds import fisher_information
-from hexcal.estimation.identification import PARAMETER_SCALE
 
 
 def random_blocks(n_cand=60, rows=3, p=8, seed=0):

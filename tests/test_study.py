@@ -67,7 +67,7 @@ def test_study_is_reproducible_and_cells_do_not_depend_on_each_other():
 
 def test_fixed_strategy_measures_the_same_poses_every_trial():
     nominal, true = preset("paper-hmt"), preset("paper-hmt-true")
-    from hexcal.core.kinematics import workspace_corners
+    from hexcal.core.workspace import workspace_corners
 
     poses = workspace_corners(nominal)[:16]
     cells = run_study(

@@ -27,17 +27,12 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from hexcal.core.conventions import rotation_matrices
-from hexcal.core.geometry import PARAMETER_NAMES, Geometry, select_parameters
-from hexcal.core.kinematics import (
-    forward_kinematics,
-    inverse_kinematics,
-    leg_lengths,
-    leg_readings,
-    random_poses,
-    workspace_corners,
-)
+from hexcal.core.geometry import Geometry
+from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
 from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.parameters import PARAMETER_NAMES, select_parameters
 from hexcal.core.presets import preset
+from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.estimation.identification import identify
 from hexcal.estimation.likelihood import identify_gls
 from hexcal.estimation.robust import DEFAULT_ALPHA, identify_robust, pose_diagnostics

@@ -20,16 +20,11 @@ from numpy.testing import assert_allclose, assert_array_equal
 from scipy.spatial.transform import Rotation
 
 from hexcal.cli import main
-from hexcal.core.geometry import PARAMETER_NAMES, select_parameters
-from hexcal.core.kinematics import (
-    forward_kinematics,
-    inverse_kinematics,
-    leg_lengths,
-    leg_readings,
-    workspace_corners,
-)
+from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
 from hexcal.core.measurement import Measurements
+from hexcal.core.parameters import PARAMETER_NAMES, select_parameters
 from hexcal.core.presets import preset
+from hexcal.core.workspace import workspace_corners
 from hexcal.estimation.identification import identify
 from hexcal.estimation.validation import validate
 from hexcal.io import (

@@ -19,20 +19,13 @@ from typing import Any
 
 import numpy as np
 
-from hexcal.core.geometry import Geometry, GeometryError
-from hexcal.core.kinematics import (
-    forward_kinematics,
-    inverse_kinematics,
-    is_feasible,
-    leg_lengths,
-    leg_readings,
-)
+from hexcal.core.geometry import Geometry
+from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
 from hexcal.core.measurement import NoiseModel
 from hexcal.core.presets import PRESETS
-from hexcal.estimation.identification import IdentificationError
-from hexcal.estimation.validation import ValidationError
+from hexcal.core.workspace import is_feasible, leg_limit_violations
+from hexcal.errors import HexcalError, UsageError
 from hexcal.io import (
-    InputError,
     atomic_write,
     load_geometry,
     read_legs,
@@ -41,11 +34,10 @@ from hexcal.io import (
     write_legs,
     write_poses,
 )
-from hexcal.simulation.campaign import SimulationError
 
 
-class CommandError(Exception):
-    """A failure to report as one line."""
+class CommandError(UsageError):
+    """A failure of a command's options to report as one line."""
 
 
 def _id_list(ids: Sequence[str], most: int = 20) -> str:
@@ -109,15 +101,15 @@ def cmd_fk(args: argparse.Namespace) -> None:
     geometry = _geometry(args.geometry, args.euler)
     legs = read_legs(args.legs)
     lengths = legs.lengths if legs.lengths is not None else leg_lengths(geometry, legs.readings)
-    if geometry.leg_length_limits is not None:
+    short, long = leg_limit_violations(geometry, lengths)
+    outside = np.flatnonzero(short | long)
+    if outside.size:
         lo, hi = geometry.leg_length_limits
-        outside = np.flatnonzero(np.any((lengths < lo - 1e-6) | (lengths > hi + 1e-6), axis=1))
-        if outside.size:
-            bad = [legs.ids[k] for k in outside]
-            raise CommandError(
-                f"{args.legs}: {len(bad)} row(s) outside the leg length limits "
-                f"[{lo:g}, {hi:g}] mm (ids {_id_list(bad)})"
-            )
+        bad = [legs.ids[k] for k in outside]
+        raise CommandError(
+            f"{args.legs}: {len(bad)} row(s) outside the leg length limits "
+            f"[{lo:g}, {hi:g}] mm (ids {_id_list(bad)})"
+        )
     if args.guess:
         guess, _ = read_poses(args.guess, geometry.euler)
         if len(guess) != len(lengths):
@@ -172,7 +164,7 @@ def _noise(args: argparse.Namespace) -> NoiseModel:
 
 
 def cmd_identify(args: argparse.Namespace) -> None:
-    from hexcal.core.geometry import select_parameters
+    from hexcal.core.parameters import select_parameters
     from hexcal.estimation.likelihood import estimate, identify_gls
     from hexcal.estimation.robust import identify_robust, pose_diagnostics
     from hexcal.io import read_measurements
@@ -659,16 +651,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         with contextlib.suppress(OSError):
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except (
-        CommandError,
-        InputError,
-        GeometryError,
-        IdentificationError,
-        ValidationError,
-        SimulationError,
-        ValueError,
-        OSError,
-    ) as exc:
+    except (HexcalError, ValueError, OSError) as exc:
         print(f"hexcal: error: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:

@@ -117,7 +117,7 @@ def _choice(value: str, allowed: tuple[str, ...], option: str) -> str:
 
 def _mask(fit: str) -> NDArray[np.bool_]:
     from hexcal.cli import CommandError
-    from hexcal.core.geometry import select_parameters
+    from hexcal.core.parameters import select_parameters
 
     try:
         return select_parameters(fit)
@@ -429,7 +429,7 @@ def format_analysis(analysis: Any, fit: str, n_test: int) -> str:
 
 def cmd_observability(args: argparse.Namespace) -> None:
     from hexcal.cli import CommandError, _check_outputs, _geometry, _id_list
-    from hexcal.core.kinematics import workspace_corners
+    from hexcal.core.workspace import workspace_corners
     from hexcal.design.candidates import check_feasibility
     from hexcal.design.identifiability import SCALINGS, analyse_poses
     from hexcal.io import atomic_write, read_poses
@@ -495,12 +495,9 @@ def cmd_select(args: argparse.Namespace) -> None:
     import time
 
     from hexcal.cli import CommandError, _check_outputs, _geometry
-    from hexcal.design.candidates import (
-        MIN_SINGULARITY_DISTANCE,
-        box_corners,
-        check_feasibility,
-        random_interior,
-    )
+    from hexcal.core.parameters import MIN_POSES
+    from hexcal.core.workspace import box_corners, random_interior
+    from hexcal.design.candidates import MIN_SINGULARITY_DISTANCE, check_feasibility
     from hexcal.design.selection import (
         CRITERIA,
         describe_value,
@@ -508,7 +505,6 @@ def cmd_select(args: argparse.Namespace) -> None:
         random_subsets,
         select_poses,
     )
-    from hexcal.estimation.identification import MIN_POSES
     from hexcal.io import atomic_write, write_poses
 
     _check_outputs(args.out, args.json)

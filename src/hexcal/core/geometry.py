@@ -15,31 +15,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.conventions import DEFAULT_EULER, N_LEGS, POSE_NAMES, check_euler
-
-PARAMETER_NAMES: tuple[str, ...] = (
-    tuple(f"u{i}.{ax}" for i in range(1, 7) for ax in "xyz")
-    + tuple(f"s{i}.{ax}" for i in range(1, 7) for ax in "xyz")
-    + tuple(f"l0_{i}" for i in range(1, 7))
-    + tuple(f"g{i}" for i in range(1, 7))
-)
-N_BASE_PARAMETERS = 42
-N_ALL_PARAMETERS = 48
-
-#: Parameter groups for selecting what an identification varies.
-PARAMETER_GROUPS: dict[str, tuple[str, ...]] = {
-    "joints": PARAMETER_NAMES[:36],
-    "base": PARAMETER_NAMES[:18],
-    "platform": PARAMETER_NAMES[18:36],
-    "l0": PARAMETER_NAMES[36:42],
-    "gains": PARAMETER_NAMES[42:48],
-}
-
-#: Leg index (0-based) that each parameter belongs to.
-PARAMETER_LEG = np.array([i for i in range(6) for _ in range(3)] * 2 + list(range(6)) * 2, dtype=np.intp)
-
-
-class GeometryError(ValueError):
-    """A geometry description is invalid (missing key, wrong shape, wrong unit...)."""
+from hexcal.core.parameters import N_ALL_PARAMETERS, N_BASE_PARAMETERS, PARAMETER_NAMES
+from hexcal.errors import GeometryError
 
 
 def _frozen(arr: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
@@ -304,33 +281,3 @@ def _box_to_mapping(box: NDArray[np.float64]) -> dict[str, list[float]]:
     out = {axis: box[k].tolist() for k, axis in enumerate("xyz")}
     out.update({f"{axis}_deg": [_deg(v) for v in box[k + 3]] for k, axis in enumerate("abc")})
     return out
-
-
-def select_parameters(
-    fit: str | tuple[str, ...] | list[str] = ("joints", "l0"),
-    fix: tuple[str, ...] | list[str] = (),
-) -> NDArray[np.bool_]:
-    """Boolean mask over the 48 parameter names: which ones an identification varies.
-
-    Parameters
-    ----------
-    fit : str or sequence of str
-        Group names from :data:`PARAMETER_GROUPS` (``joints``, ``base``, ``platform``,
-        ``l0``, ``gains``), as a sequence or a comma-separated string.
-    fix : sequence of str
-        Parameter names to hold at their current values.
-    """
-    groups = [g.strip() for g in fit.split(",")] if isinstance(fit, str) else list(fit)
-    mask = np.zeros(N_ALL_PARAMETERS, dtype=bool)
-    for group in groups:
-        if group not in PARAMETER_GROUPS:
-            raise ValueError(f"unknown parameter group {group!r}; choose from {', '.join(PARAMETER_GROUPS)}")
-        for name in PARAMETER_GROUPS[group]:
-            mask[PARAMETER_NAMES.index(name)] = True
-    for name in fix:
-        if name not in PARAMETER_NAMES:
-            raise ValueError(f"unknown parameter {name!r} (names are like u1.x, s3.z, l0_2, g4)")
-        mask[PARAMETER_NAMES.index(name)] = False
-    if not mask.any():
-        raise ValueError("no parameter left to identify")
-    return mask

@@ -17,6 +17,14 @@ from numpy.typing import ArrayLike, NDArray
 from hexcal.core.conventions import as_poses
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import inverse_kinematics, pose_jacobian
+from hexcal.core.workspace import (
+    LEG_LIMIT_MARGIN,
+    as_box,
+    box_corners,
+    leg_limit_violations,
+    random_interior,
+    workspace_box,
+)
 
 #: Default minimum of :func:`singularity_distance`. At 0.05 a leg length error of 1 µm can
 #: move points of the platform by up to 20 µm; on the seed paper's machine the value is
@@ -24,34 +32,7 @@ from hexcal.core.kinematics import inverse_kinematics, pose_jacobian
 #: at the rotation singularity ``c = ±90°``, below 0.05 beyond about ``|c| = 81°``.
 MIN_SINGULARITY_DISTANCE = 0.05
 
-#: Tolerance, mm, beyond the leg length limits (the seed machine's lowest corners touch
-#: its lower limit up to rounding).
-LEG_LIMIT_MARGIN = 1e-6
-
 KINDS = ("corners", "grid", "edges", "random")
-
-
-def _box(box: ArrayLike) -> NDArray[np.float64]:
-    arr = np.asarray(box, dtype=float)
-    if arr.shape != (6, 2):
-        raise ValueError(f"workspace box must have shape (6, 2), got {arr.shape}")
-    return arr
-
-
-def workspace_box(geometry: Geometry) -> NDArray[np.float64]:
-    """The geometry's workspace box (6, 2), or ``ValueError`` naming the missing key."""
-    if geometry.workspace is None:
-        name = f" {geometry.name}" if geometry.name else ""
-        raise ValueError(f"geometry{name} has no workspace box (add a 'workspace:' mapping)")
-    return geometry.workspace
-
-
-def box_corners(box: ArrayLike) -> NDArray[np.float64]:
-    """The 64 corners of a box, shape (64, 6), in the order of
-    :func:`hexcal.core.kinematics.workspace_corners` (x is the most significant bit)."""
-    b = _box(box)
-    bits = (np.arange(64)[:, None] >> np.arange(5, -1, -1)) & 1
-    return np.where(bits == 1, b[:, 1], b[:, 0])
 
 
 def boundary_grid(box: ArrayLike, levels: int = 3, min_extreme: int = 1) -> NDArray[np.float64]:
@@ -72,7 +53,7 @@ def boundary_grid(box: ArrayLike, levels: int = 3, min_extreme: int = 1) -> NDAr
         With ``levels=3`` and ``min_extreme=1``: ``3⁶ - 1 = 728`` points (all but the
         centre); with ``min_extreme=5``: 64 corners and the 192 edge midpoints.
     """
-    b = _box(box)
+    b = as_box(box)
     levels = int(levels)
     if levels < 2:
         raise ValueError(f"grid levels must be at least 2, got {levels}")
@@ -83,17 +64,6 @@ def boundary_grid(box: ArrayLike, levels: int = 3, min_extreme: int = 1) -> NDAr
     index = index[extreme >= min_extreme]
     t = index / (levels - 1)
     return b[:, 0] + t * (b[:, 1] - b[:, 0])
-
-
-def random_interior(
-    box: ArrayLike, n: int, rng: np.random.Generator | int | None = None
-) -> NDArray[np.float64]:
-    """``n`` poses drawn uniformly inside a box, shape (n, 6)."""
-    b = _box(box)
-    if int(n) < 0:
-        raise ValueError(f"number of random poses must be >= 0, got {n}")
-    gen = np.random.default_rng(rng)
-    return gen.uniform(b[:, 0], b[:, 1], size=(int(n), 6))
 
 
 def candidate_poses(
@@ -244,13 +214,7 @@ def check_feasibility(
     poses = as_poses(poses).reshape(-1, 6)
     if not np.all(np.isfinite(poses)):
         raise ValueError("candidate poses contain NaN or inf")
-    lengths = inverse_kinematics(geometry, poses)
-    if geometry.leg_length_limits is None:
-        short = long = np.zeros(poses.shape[0], dtype=bool)
-    else:
-        lo, hi = geometry.leg_length_limits
-        short = np.any(lengths < lo - margin, axis=1)
-        long = np.any(lengths > hi + margin, axis=1)
+    short, long = leg_limit_violations(geometry, inverse_kinematics(geometry, poses), margin)
     distance = singularity_distance(geometry, poses)
     return Feasibility(
         too_short=short,

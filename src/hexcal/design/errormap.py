@@ -23,11 +23,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.conventions import POSE_NAMES, as_poses, orientation_error
-from hexcal.core.geometry import Geometry, select_parameters
+from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics_from_arrays, inverse_kinematics
-from hexcal.design.candidates import box_corners, random_interior, workspace_box
+from hexcal.core.parameters import PARAMETER_SCALE, select_parameters
+from hexcal.core.workspace import box_corners, random_interior, workspace_box
 from hexcal.design.identifiability import pose_error_map, rotation_vector_map
-from hexcal.estimation.identification import PARAMETER_SCALE
 
 LINE_AXES = ("x", "y", "z")
 ANGLE_PAIRS = (("a", "b"), ("a", "c"), ("b", "c"))

@@ -23,16 +23,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.conventions import as_poses, euler_axes
-from hexcal.core.geometry import PARAMETER_NAMES, Geometry, select_parameters
+from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import inverse_kinematics, pose_jacobian
+from hexcal.core.linalg import RANK_RTOL
 from hexcal.core.measurement import NoiseModel
+from hexcal.core.parameters import PARAMETER_NAMES, PARAMETER_SCALE, select_parameters
 from hexcal.estimation.bounds import (
     cramer_rao_covariance,
     planned_measurements,
     residual_covariances,
     whitened_jacobian,
 )
-from hexcal.estimation.identification import PARAMETER_SCALE, RANK_RTOL, identification_jacobian
+from hexcal.estimation.identification import identification_jacobian
 
 SCALINGS = ("norm", "parameter", "none")
 

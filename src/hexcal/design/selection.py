@@ -39,10 +39,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.core.geometry import Geometry, select_parameters
+from hexcal.core.geometry import Geometry
 from hexcal.core.measurement import NoiseModel
+from hexcal.core.parameters import PARAMETER_SCALE, select_parameters
+from hexcal.errors import SelectionError
 from hexcal.estimation.bounds import whitened_jacobian
-from hexcal.estimation.identification import PARAMETER_SCALE
 
 CRITERIA = ("D", "A", "E", "O4")
 
@@ -59,8 +60,6 @@ SCREEN_DIMENSIONS = 6
 SCREEN_SHORTLIST = 32
 
 
-class SelectionError(ValueError):
-    """Poses cannot be selected as asked (too few candidates, unknown criterion...)."""
 
 
 def information_blocks(

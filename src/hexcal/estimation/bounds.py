@@ -25,9 +25,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.core.geometry import Geometry, select_parameters
+from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import inverse_kinematics, leg_readings, pose_jacobian
 from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.parameters import select_parameters
 from hexcal.estimation.identification import identification_jacobian
 
 

@@ -22,27 +22,20 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
 from hexcal.core.conventions import as_poses, rotation_matrices
-from hexcal.core.geometry import (
+from hexcal.core.geometry import Geometry
+from hexcal.core.linalg import gram_pinv, numerical_rank, scaled_svd
+from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.parameters import (
+    MIN_POSES,
     N_ALL_PARAMETERS,
     PARAMETER_NAMES,
-    Geometry,
+    PARAMETER_SCALE,
+    ParameterSet,
     select_parameters,
 )
-from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.errors import IdentificationError
 
 METHODS = ("paper", "length")
-
-#: Characteristic scale of each parameter (mm for joints and l0; gains are
-#: dimensionless, and a gain change of 1e-3 moves a leg by about a millimetre).
-PARAMETER_SCALE = np.concatenate([np.ones(42), np.full(6, 1e-3)])
-
-#: Singular values of the column-normalised Jacobian below this fraction of the
-#: largest count as zero when judging identifiability.
-RANK_RTOL = 1e-8
-
-#: Minimum number of poses: each leg has 7 parameters (8 with its gain) and gets one
-#: equation per pose.
-MIN_POSES = 7
 
 _LEG = np.arange(6)
 _U_COLS = 3 * _LEG[:, None] + np.arange(3)
@@ -51,8 +44,6 @@ _L0_COLS = 36 + _LEG
 _G_COLS = 42 + _LEG
 
 
-class IdentificationError(ValueError):
-    """The data cannot determine the parameters, or the solver failed."""
 
 
 def _split(params: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray, NDArray]:
@@ -280,18 +271,6 @@ class IdentificationResult:
         }
 
 
-def _column_svd(jac: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
-    """SVD of the column-normalised Jacobian: ``(norms, singular values, Vt)``."""
-    norms = np.linalg.norm(jac, axis=0)
-    norms = np.where(norms > 0, norms, 1.0)
-    _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
-    return norms, sv, vt
-
-
-def _rank(sv: NDArray[np.float64]) -> int:
-    return int(np.sum(sv > RANK_RTOL * sv[0])) if sv.size else 0
-
-
 def identify(
     start: Geometry,
     measurements: Measurements,
@@ -388,12 +367,12 @@ def check_data_size(measurements: Measurements, mask: NDArray[np.bool_]) -> None
 
 def check_rank(jac: NDArray[np.float64], mask: NDArray[np.bool_], where: str = "") -> None:
     """Refuse a rank-deficient (scaled) Jacobian, naming the weakest combination."""
-    _, sv, vt = _column_svd(jac)
-    n = int(mask.sum())
-    if _rank(sv) < n:
+    svd = scaled_svd(jac)
+    n, rank = int(mask.sum()), numerical_rank(svd.singular_values)
+    if rank < n:
         raise IdentificationError(
             f"the poses cannot identify all parameters{where} (rank-deficient Jacobian: rank "
-            f"{_rank(sv)} of {n}; weakest combination: {_combination(vt[-1], mask)})"
+            f"{rank} of {n}; weakest combination: {_combination(svd.vt[-1], mask)})"
         )
 
 
@@ -418,8 +397,9 @@ def finish_result(
     scale = PARAMETER_SCALE[mask]
     n_vary = int(mask.sum())
     m = len(measurements)
-    norms, sv, vt = _column_svd(jac_scaled)
-    rank = _rank(sv)
+    svd = scaled_svd(jac_scaled)
+    sv, vt = svd.singular_values, svd.vt
+    rank = numerical_rank(sv)
     if rank < n_vary:
         raise IdentificationError(
             f"rank-deficient Jacobian at the solution (rank {rank} of {n_vary}; weakest "
@@ -428,8 +408,7 @@ def finish_result(
     dof = residuals.size - n_vary if dof is None else dof
     # an exactly determined fit (dof 0) has no residual to estimate the noise from
     s2 = float(residuals @ residuals) / dof if dof > 0 else float("nan")
-    vs = vt.T / sv
-    cov = (vs @ vs.T) / np.outer(norms, norms) * s2 * np.outer(scale, scale)
+    cov = gram_pinv(svd) * s2 * np.outer(scale, scale)
     stderr = np.sqrt(np.diag(cov))
     corr = cov / np.outer(stderr, stderr)
     rot, pos = _prepare(start, measurements.poses)
@@ -468,19 +447,8 @@ def finish_result(
 def parameter_unpacker(
     full0: NDArray[np.float64], mask: NDArray[np.bool_]
 ) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
-    """The map from solver variables to the full 48-vector.
-
-    The solver varies ``x = (θ[mask] - full0[mask]) / PARAMETER_SCALE[mask]``; the
-    parameters not varied keep their values in ``full0``.
-    """
-    base, scale = full0[mask], PARAMETER_SCALE[mask]
-
-    def unpack(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        full = full0.copy()
-        full[mask] = base + x * scale
-        return full
-
-    return unpack
+    """The map from solver variables to the full 48-vector (:meth:`ParameterSet.unpacker`)."""
+    return ParameterSet(PARAMETER_NAMES, full0, mask, PARAMETER_SCALE).unpacker()
 
 
 def _rms(x: NDArray[np.float64]) -> float:

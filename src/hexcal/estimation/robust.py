@@ -38,12 +38,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 from scipy.special import fdtri
 
-from hexcal.core.geometry import Geometry, select_parameters
+from hexcal.core.geometry import Geometry
 from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.parameters import PARAMETER_SCALE, select_parameters
+from hexcal.errors import IdentificationError
 from hexcal.estimation.bounds import residual_covariances, whitening
 from hexcal.estimation.identification import (
-    PARAMETER_SCALE,
-    IdentificationError,
     IdentificationResult,
     _jacobian,
     _prepare,

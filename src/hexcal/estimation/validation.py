@@ -28,11 +28,9 @@ from hexcal.core.kinematics import (
     leg_readings,
 )
 from hexcal.core.measurement import Measurements
+from hexcal.core.workspace import leg_limit_violations
+from hexcal.errors import ValidationError
 from hexcal.simulation.campaign import pose_errors
-
-
-class ValidationError(ValueError):
-    """The model cannot be evaluated at some poses (forward kinematics fails)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,11 +145,8 @@ def compensate(
     ids = tuple(ids) if ids is not None else tuple(str(k + 1) for k in range(len(targets)))
     lengths = inverse_kinematics(geometry, targets)
     readings = leg_readings(geometry, lengths)
-    if geometry.leg_length_limits is None:
-        feasible = np.ones(len(targets), dtype=bool)
-    else:
-        lo, hi = geometry.leg_length_limits
-        feasible = np.all((lengths >= lo - 1e-9) & (lengths <= hi + 1e-9), axis=1)
+    short, long = leg_limit_violations(geometry, lengths, margin=1e-9)
+    feasible = ~(short | long)
     corrected = None
     if nominal is not None:
         # only for the reachable targets: an unreachable one has no command to correct

@@ -24,9 +24,10 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from hexcal.core.geometry import Geometry, GeometryError
+from hexcal.core.geometry import Geometry
 from hexcal.core.measurement import Measurements
 from hexcal.core.presets import PRESETS, preset
+from hexcal.errors import GeometryError, InputError, InputWarning
 
 #: A quaternion whose norm differs from 1 by more than this is refused (others are
 #: normalised). 1e-3 admits instruments that print 4 decimals and catches a wrong column.
@@ -50,12 +51,8 @@ def _umask() -> int:
     return mask
 
 
-class InputError(ValueError):
-    """An input file is missing or malformed; the message names file, line and column."""
 
 
-class InputWarning(UserWarning):
-    """An input file is readable but probably not what the user meant."""
 
 
 # -- geometry -------------------------------------------------------------------

@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hexcal.core.geometry import PARAMETER_NAMES
+from hexcal.core.parameters import PARAMETER_NAMES
 from hexcal.design.errormap import AngleMap, LineMap
 from hexcal.simulation.campaign import PaperExperiment
 

@@ -29,25 +29,23 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.core.conventions import orientation_error
-from hexcal.core.geometry import N_BASE_PARAMETERS, Geometry, select_parameters
+from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import (
     forward_kinematics_from_arrays,
     inverse_kinematics,
     leg_readings,
     leg_vectors_from_arrays,
-    random_poses,
-    workspace_corners,
 )
 from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.parameters import N_BASE_PARAMETERS, select_parameters
+from hexcal.core.workspace import random_poses, workspace_corners
+from hexcal.errors import IdentificationError, SimulationError
 from hexcal.estimation.bounds import bound_mean_abs_error
-from hexcal.estimation.identification import IdentificationError
 from hexcal.estimation.likelihood import estimate
 
 Progress = Callable[[int, int], None]
 
 
-class SimulationError(RuntimeError):
-    """A simulated campaign could not be carried out (e.g. unreachable poses)."""
 
 
 @dataclass(frozen=True)
