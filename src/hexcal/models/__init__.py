@@ -1,0 +1,12 @@
+"""Measurement models: what an instrument measures at a platform pose, the residuals
+and their Jacobians with respect to the parameters and to the true pose, and their noise
+covariance. Imports :mod:`hexcal.core`.
+"""
+
+from hexcal._lazy import attach
+
+__getattr__, __dir__, __all__ = attach(
+    __name__,
+    {
+    },
+)
