@@ -39,11 +39,12 @@ from hexcal.core.kinematics import (
     leg_lengths,
     leg_readings,
 )
-from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.errors import IdentificationError
 from hexcal.estimation.identification import identify
+from hexcal.models.pose import Measurements
 
 BENCHMARKS = ("ik", "fk", "identify", "ml", "identify-cli", "cli")
 SEED = 20240601

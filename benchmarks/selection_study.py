@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.core.geometry import Geometry
-from hexcal.core.measurement import NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_interior
 from hexcal.design.candidates import candidate_poses

@@ -20,9 +20,10 @@ import pytest
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
-from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import workspace_corners
+from hexcal.models.pose import Measurements
 
 
 def simulate_measurements(

@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from scipy import stats
 
 from hexcal.core.kinematics import inverse_kinematics, leg_readings
-from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import PARAMETER_NAMES, PARAMETER_SCALE, select_parameters
 from hexcal.core.workspace import random_poses
 from hexcal.errors import IdentificationError
@@ -18,6 +18,7 @@ from hexcal.estimation.identification import (
     identification_residuals,
     identify,
 )
+from hexcal.models.pose import Measurements
 
 # true leg gains off by about 1e-3 (a leg moving 300 mm then errs by about 0.3 mm)
 GAIN_ERRORS = 1e-3 * np.array([1.0, -1.0, 0.5, -0.5, 2.0, -1.5])

@@ -8,13 +8,14 @@ from numpy.testing import assert_allclose
 
 from hexcal.cli import CommandError, parse_noise
 from hexcal.core.kinematics import leg_vectors
-from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import select_parameters
 from hexcal.core.workspace import workspace_corners
 from hexcal.errors import IdentificationError
 from hexcal.estimation.bounds import bound_mean_abs_error, cramer_rao_covariance, fisher_information
 from hexcal.estimation.identification import identify
 from hexcal.estimation.likelihood import estimate, identify_gls, identify_ml
+from hexcal.models.pose import Measurements
 from hexcal.simulation.campaign import simulate_measurements
 
 PAPER_NOISE = NoiseModel()  # the seed paper's section VI: ±0.01 mm, ±0.025 mm, ±0.001 rad

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics
-from hexcal.core.measurement import NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import PARAMETER_NAMES, select_parameters
 from hexcal.core.workspace import workspace_corners
 from hexcal.design.identifiability import (

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from hexcal.core.measurement import NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import PARAMETER_SCALE, select_parameters
 from hexcal.core.workspace import box_corners, random_interior, workspace_box, workspace_corners
 from hexcal.design.candidates import (

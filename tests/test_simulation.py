@@ -7,7 +7,7 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
-from hexcal.core.measurement import NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.simulation.campaign import PaperExperiment, identify_batch, pose_errors, run_paper_experiment
 
 TRIALS = 40

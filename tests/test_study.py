@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hexcal.cli import main
-from hexcal.core.measurement import NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.simulation.campaign import run_paper_experiment
 from hexcal.simulation.study import fixed_strategy, run_study

@@ -29,7 +29,7 @@ from scipy.spatial.transform import Rotation
 from hexcal.core.conventions import rotation_matrices
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
-from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import PARAMETER_NAMES, select_parameters
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses, workspace_corners
@@ -38,6 +38,7 @@ from hexcal.estimation.likelihood import identify_gls
 from hexcal.estimation.robust import DEFAULT_ALPHA, identify_robust, pose_diagnostics
 from hexcal.estimation.validation import compensate, validate
 from hexcal.io import read_measurements, write_measurements
+from hexcal.models.pose import Measurements
 from hexcal.report.text import format_identification_report, identification_summary
 from hexcal.simulation.campaign import simulate_measurements
 

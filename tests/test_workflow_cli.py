@@ -21,7 +21,6 @@ from scipy.spatial.transform import Rotation
 
 from hexcal.cli import main
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
-from hexcal.core.measurement import Measurements
 from hexcal.core.parameters import PARAMETER_NAMES, select_parameters
 from hexcal.core.presets import preset
 from hexcal.core.workspace import workspace_corners
@@ -38,6 +37,7 @@ from hexcal.io import (
     write_poses,
     write_table,
 )
+from hexcal.models.pose import Measurements
 
 NOMINAL = preset("paper-hmt")
 TRUE = preset("paper-hmt-true")

@@ -21,7 +21,7 @@ import numpy as np
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
-from hexcal.core.measurement import NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import PRESETS
 from hexcal.core.workspace import is_feasible, leg_limit_violations
 from hexcal.errors import HexcalError, UsageError

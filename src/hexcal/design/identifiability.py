@@ -26,7 +26,7 @@ from hexcal.core.conventions import as_poses, euler_axes
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import inverse_kinematics, pose_jacobian
 from hexcal.core.linalg import RANK_RTOL
-from hexcal.core.measurement import NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import PARAMETER_NAMES, PARAMETER_SCALE, select_parameters
 from hexcal.estimation.bounds import (
     cramer_rao_covariance,

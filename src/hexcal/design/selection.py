@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.geometry import Geometry
-from hexcal.core.measurement import NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import PARAMETER_SCALE, select_parameters
 from hexcal.errors import SelectionError
 from hexcal.estimation.bounds import whitened_jacobian

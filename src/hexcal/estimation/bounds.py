@@ -27,9 +27,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import inverse_kinematics, leg_readings, pose_jacobian
-from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import select_parameters
 from hexcal.estimation.identification import identification_jacobian
+from hexcal.models.pose import Measurements
 
 
 def planned_measurements(geometry: Geometry, poses: ArrayLike) -> Measurements:

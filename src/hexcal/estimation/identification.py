@@ -24,7 +24,7 @@ from scipy.optimize import least_squares
 from hexcal.core.conventions import as_poses, rotation_matrices
 from hexcal.core.geometry import Geometry
 from hexcal.core.linalg import gram_pinv, numerical_rank, scaled_svd
-from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import (
     MIN_POSES,
     N_ALL_PARAMETERS,
@@ -34,6 +34,7 @@ from hexcal.core.parameters import (
     select_parameters,
 )
 from hexcal.errors import IdentificationError
+from hexcal.models.pose import Measurements
 
 METHODS = ("paper", "length")
 

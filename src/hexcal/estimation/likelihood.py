@@ -39,7 +39,7 @@ from scipy.optimize import least_squares
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import pose_jacobian_from_arrays
-from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import PARAMETER_SCALE, select_parameters
 from hexcal.errors import IdentificationError
 from hexcal.estimation.bounds import cramer_rao_covariance, residual_covariances, whitening
@@ -55,6 +55,7 @@ from hexcal.estimation.identification import (
     identify,
     parameter_unpacker,
 )
+from hexcal.models.pose import Measurements
 
 #: Estimators by name; ``"ml"`` is the default of ``hexcal identify``.
 ESTIMATORS = ("ml", "gls", "length", "paper")

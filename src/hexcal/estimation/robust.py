@@ -39,7 +39,7 @@ from scipy.optimize import least_squares
 from scipy.special import fdtri
 
 from hexcal.core.geometry import Geometry
-from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import PARAMETER_SCALE, select_parameters
 from hexcal.errors import IdentificationError
 from hexcal.estimation.bounds import residual_covariances, whitening
@@ -54,6 +54,7 @@ from hexcal.estimation.identification import (
     parameter_unpacker,
 )
 from hexcal.estimation.likelihood import LEG_SIGMA_FLOOR, identify_gls
+from hexcal.models.pose import Measurements
 
 #: Family-wise false alarm rate of the outlier test over all poses of a data set.
 DEFAULT_ALPHA = 0.01

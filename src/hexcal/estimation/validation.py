@@ -27,9 +27,9 @@ from hexcal.core.kinematics import (
     leg_lengths,
     leg_readings,
 )
-from hexcal.core.measurement import Measurements
 from hexcal.core.workspace import leg_limit_violations
 from hexcal.errors import ValidationError
+from hexcal.models.pose import Measurements
 from hexcal.simulation.campaign import pose_errors
 
 

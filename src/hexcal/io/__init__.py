@@ -25,9 +25,9 @@ import yaml
 from numpy.typing import NDArray
 
 from hexcal.core.geometry import Geometry
-from hexcal.core.measurement import Measurements
 from hexcal.core.presets import PRESETS, preset
 from hexcal.errors import GeometryError, InputError, InputWarning
+from hexcal.models.pose import Measurements
 
 #: A quaternion whose norm differs from 1 by more than this is refused (others are
 #: normalised). 1e-3 admits instruments that print 4 decimals and catches a wrong column.

@@ -8,5 +8,6 @@ from hexcal._lazy import attach
 __getattr__, __dir__, __all__ = attach(
     __name__,
     {
+        "Measurements": "pose",
     },
 )

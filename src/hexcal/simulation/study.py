@@ -20,9 +20,10 @@ from numpy.typing import NDArray
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import inverse_kinematics, leg_readings
-from hexcal.core.measurement import Measurements, NoiseModel
+from hexcal.core.noise import NoiseModel
 from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.estimation.bounds import bound_mean_abs_error
+from hexcal.models.pose import Measurements
 from hexcal.simulation.campaign import MachineBatch, identify_batch, pose_errors, random_machines
 
 #: Pose strategies: a function ``(nominal, n, rng) -> (n, 6)`` poses for one trial.

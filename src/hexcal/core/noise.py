@@ -1,66 +1,20 @@
-"""Measurement data and measurement noise.
+"""Measurement noise: leg sensor, position and orientation errors (:class:`NoiseModel`).
 
-A measurement is a pose of the platform measured by an external instrument (laser
-tracker, CMM) together with the six leg readings the controller reported there.
+Imports numpy and :mod:`hexcal.errors`.
+
+>>> noise = NoiseModel(leg=0.01, position=0.025, orientation=0.001)   # uniform half-widths
+>>> [round(s, 6) for s in noise.sigmas]
+[0.005774, 0.014434, 0.000577]
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from hexcal.core.conventions import as_poses
-
-
-@dataclass(frozen=True, eq=False)
-class Measurements:
-    """Measured poses and the leg readings at each.
-
-    Parameters
-    ----------
-    poses : array_like, shape (m, 6)
-        Measured poses, mm and rad, in the geometry's Euler convention.
-    readings : array_like, shape (m, 6)
-        Leg readings ``dl_i``, mm.
-    ids : sequence of str, optional
-        Pose labels; default ``"1" ... "m"`` (the row numbers).
-    """
-
-    poses: NDArray[np.float64]
-    readings: NDArray[np.float64]
-    ids: tuple[str, ...] = field(default=())
-
-    def __post_init__(self) -> None:
-        poses = np.array(as_poses(self.poses, "measured poses"), dtype=float)
-        readings = np.array(self.readings, dtype=float)
-        if poses.ndim != 2:
-            raise ValueError(f"measured poses must have shape (m, 6), got {poses.shape}")
-        if readings.shape != poses.shape:
-            raise ValueError(
-                f"leg readings must have shape {poses.shape} like the poses, got {readings.shape}"
-            )
-        for what, arr in (("measured poses", poses), ("leg readings", readings)):
-            bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
-            if bad.size:
-                raise ValueError(f"{what} contain NaN or inf (row {bad[0] + 1})")
-        ids = tuple(str(i) for i in self.ids) or tuple(str(k + 1) for k in range(len(poses)))
-        if len(ids) != len(poses):
-            raise ValueError(f"{len(ids)} ids for {len(poses)} poses")
-        poses.flags.writeable = False
-        readings.flags.writeable = False
-        object.__setattr__(self, "poses", poses)
-        object.__setattr__(self, "readings", readings)
-        object.__setattr__(self, "ids", ids)
-
-    def __len__(self) -> int:
-        return int(self.poses.shape[0])
-
-    def subset(self, index: ArrayLike) -> Measurements:
-        """The measurements at ``index`` (an integer or boolean index)."""
-        idx = np.arange(len(self))[np.asarray(index)]
-        return Measurements(self.poses[idx], self.readings[idx], tuple(self.ids[i] for i in idx))
+from hexcal.errors import UsageError
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,17 +49,17 @@ class NoiseModel:
         if self.pose_covariance is not None:
             cov = np.array(self.pose_covariance, dtype=float)
             if cov.shape != (6, 6) or not np.all(np.isfinite(cov)):
-                raise ValueError(f"pose covariance must be a finite 6x6 matrix, got shape {cov.shape}")
+                raise UsageError(f"pose covariance must be a finite 6x6 matrix, got shape {cov.shape}")
             if not np.allclose(cov, cov.T, rtol=1e-9, atol=0) or np.linalg.eigvalsh(cov)[0] < 0:
-                raise ValueError("pose covariance must be symmetric positive semi-definite")
+                raise UsageError("pose covariance must be symmetric positive semi-definite")
             cov.flags.writeable = False
             object.__setattr__(self, "pose_covariance", cov)
         if self.distribution not in ("uniform", "normal"):
-            raise ValueError(f"noise distribution must be 'uniform' or 'normal', got {self.distribution!r}")
+            raise UsageError(f"noise distribution must be 'uniform' or 'normal', got {self.distribution!r}")
         for name in ("leg", "position", "orientation"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"noise {name} must be a finite value >= 0, got {value!r}")
+                raise UsageError(f"noise {name} must be a finite value >= 0, got {value!r}")
 
     @property
     def sigmas(self) -> tuple[float, float, float]:
