@@ -43,7 +43,7 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.errors import IdentificationError
-from hexcal.estimation.identification import identify
+from hexcal.estimation.fitting import estimate
 from hexcal.models.pose import Measurements
 
 BENCHMARKS = ("ik", "fk", "identify", "ml", "identify-cli", "cli")
@@ -274,7 +274,7 @@ def bench_identify(report: Report, nominal: Geometry, quick: bool) -> None:
         f"position ±{noise.position} mm, angles ±{noise.orientation} rad, uniform)"
     )
     for method in ("paper", "length"):
-        identify(nominal, datasets[0], method=method)  # warm-up
+        estimate(nominal, datasets[0], method, with_bound=False)  # warm-up
         samples, nfev, failures = [], [], 0
         gc.collect()
         gc.disable()
@@ -283,7 +283,7 @@ def bench_identify(report: Report, nominal: Geometry, quick: bool) -> None:
                 for data in datasets:
                     start = time.perf_counter()
                     try:
-                        result = identify(nominal, data, method=method)
+                        result = estimate(nominal, data, method, with_bound=False)
                     except IdentificationError:
                         failures += 1
                         continue
@@ -307,7 +307,6 @@ def bench_identify(report: Report, nominal: Geometry, quick: bool) -> None:
 
 def bench_ml(report: Report, nominal: Geometry, quick: bool) -> None:
     """Maximum-likelihood identification (issue 5): 15 corners, and 1000 random workspace poses."""
-    from hexcal.estimation.likelihood import identify_ml
     from hexcal.simulation.campaign import simulate_measurements
 
     header("maximum likelihood: identify_ml(paper-hmt, noisy data of paper-hmt-true), 42 parameters")
@@ -315,12 +314,12 @@ def bench_ml(report: Report, nominal: Geometry, quick: bool) -> None:
     noise = NoiseModel()
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(SEED + 1).spawn(30)]
     sets15 = [simulated_corner_data(nominal, true, 15, r, noise) for r in rngs[: 10 if quick else 30]]
-    identify_ml(nominal, sets15[0], noise)
+    estimate(nominal, sets15[0], "ml", noise=noise, with_bound=False)
     samples = []
     with CpuShare() as cpu:
         for data in sets15:
             start = time.perf_counter()
-            identify_ml(nominal, data, noise)
+            estimate(nominal, data, "ml", noise=noise, with_bound=False)
             samples.append(time.perf_counter() - start)
     med = float(np.median(samples))
     report.figure(
@@ -338,7 +337,7 @@ def bench_ml(report: Report, nominal: Geometry, quick: bool) -> None:
     with CpuShare() as cpu:
         for _ in range(3):
             start = time.perf_counter()
-            result = identify_ml(nominal, data, noise)
+            result = estimate(nominal, data, "ml", noise=noise, with_bound=False)
             samples.append(time.perf_counter() - start)
     med = float(np.median(samples))
     report.figure(

@@ -13,8 +13,7 @@ from hexcal.core.parameters import select_parameters
 from hexcal.core.workspace import workspace_corners
 from hexcal.errors import IdentificationError
 from hexcal.estimation.bounds import bound_mean_abs_error, cramer_rao_covariance, fisher_information
-from hexcal.estimation.identification import identify
-from hexcal.estimation.likelihood import estimate, identify_gls, identify_ml
+from hexcal.estimation.fitting import estimate
 from hexcal.models.pose import Measurements
 from hexcal.simulation.campaign import simulate_measurements
 
@@ -68,7 +67,7 @@ def test_cramer_rao_bound_matches_brute_force_fisher_information(true_machine, c
 def test_fisher_information_of_leg_noise_only_is_plain_least_squares_information(true_machine, corner_poses):
     """Without pose noise the information is AᵀA / σ² with A the identification Jacobian."""
     from hexcal.estimation.bounds import planned_measurements
-    from hexcal.estimation.identification import identification_jacobian
+    from hexcal.estimation.problem import identification_jacobian
 
     noise = NoiseModel(leg=0.02, position=0, orientation=0, distribution="normal")
     a = identification_jacobian(true_machine, planned_measurements(true_machine, corner_poses))
@@ -83,7 +82,7 @@ def test_bound_mean_abs_error_equals_the_bound_sigmas(true_machine, corner_poses
 
 def test_ml_recovers_noise_free_parameters(nominal, true_machine, corner_poses):
     data = simulate_measurements(nominal, true_machine, corner_poses, NoiseModel(0, 0, 0), 0)
-    result = identify_ml(nominal, data, PAPER_NOISE)
+    result = estimate(nominal, data, "ml", noise=PAPER_NOISE, with_bound=False)
     assert result.method == "ml"
     assert np.max(np.abs(result.values - true_machine.to_vector())) < 1e-6
     assert result.residuals.shape == (15, 12)
@@ -91,16 +90,20 @@ def test_ml_recovers_noise_free_parameters(nominal, true_machine, corner_poses):
 
 def test_ml_with_zero_pose_noise_equals_least_squares_on_leg_lengths(nominal, true_machine, corner_poses):
     data = simulate_measurements(nominal, true_machine, corner_poses, NoiseModel(0.01, 0, 0), 3)
-    ml = identify_ml(nominal, data, NoiseModel(leg=0.01, position=0, orientation=0))
-    ls = identify(nominal, data, "length")
+    ml = estimate(
+        nominal, data, "ml", noise=NoiseModel(leg=0.01, position=0, orientation=0), with_bound=False
+    )
+    ls = estimate(nominal, data, "length", with_bound=False)
     assert_allclose(ml.values, ls.values, rtol=0, atol=1e-12)
 
 
 def test_ml_with_tiny_pose_noise_approaches_least_squares(nominal, true_machine, corner_poses):
     """Continuity of the variable-projection solution as the pose noise goes to zero."""
     data = simulate_measurements(nominal, true_machine, corner_poses, NoiseModel(0.01, 0, 0), 3)
-    ml = identify_ml(nominal, data, NoiseModel(leg=0.01, position=1e-7, orientation=1e-10))
-    ls = identify(nominal, data, "length")
+    ml = estimate(
+        nominal, data, "ml", noise=NoiseModel(leg=0.01, position=1e-7, orientation=1e-10), with_bound=False
+    )
+    ls = estimate(nominal, data, "length", with_bound=False)
     assert np.max(np.abs(ml.values - ls.values)) < 1e-4
 
 
@@ -138,7 +141,7 @@ def test_ml_reduced_chi_square_near_one_under_the_right_noise(nominal, true_mach
     chi2 = []
     for seed in range(10):
         data = simulate_measurements(nominal, true_machine, corners, normal, seed)
-        chi2.append(identify_ml(nominal, data, normal).reduced_chi2)
+        chi2.append(estimate(nominal, data, "ml", noise=normal, with_bound=False).reduced_chi2)
     # 10 x (6*64 - 42) = 3420 degrees of freedom: the mean has sd sqrt(2/3420) = 0.024
     assert abs(np.mean(chi2) - 1) < 5 * np.sqrt(2 / 3420)
 
@@ -146,16 +149,16 @@ def test_ml_reduced_chi_square_near_one_under_the_right_noise(nominal, true_mach
 def test_ml_refuses_too_few_poses_and_rank_deficient_sets(nominal, true_machine, corner_poses):
     data = simulate_measurements(nominal, true_machine, corner_poses, None)
     with pytest.raises(IdentificationError, match="poses"):
-        identify_ml(nominal, data.subset(np.arange(5)), PAPER_NOISE)
+        estimate(nominal, data.subset(np.arange(5)), "ml", noise=PAPER_NOISE, with_bound=False)
     flat = Measurements(np.column_stack([data.poses[:, :3], np.zeros((15, 3))]), data.readings)
     with pytest.raises(IdentificationError, match="rank"):
-        identify_ml(nominal, flat, PAPER_NOISE)
+        estimate(nominal, flat, "ml", noise=PAPER_NOISE, with_bound=False)
 
 
 def test_gls_with_zero_noise_is_least_squares(nominal, true_machine, corner_poses):
     data = simulate_measurements(nominal, true_machine, corner_poses, PAPER_NOISE, 2)
-    gls = identify_gls(nominal, data, NoiseModel(0, 0, 0))
-    ls = identify(nominal, data, "length")
+    gls = estimate(nominal, data, "gls", noise=NoiseModel(0, 0, 0), with_bound=False)
+    ls = estimate(nominal, data, "length", with_bound=False)
     assert_allclose(gls.values, ls.values, atol=1e-12)
 
 
@@ -209,7 +212,9 @@ def test_ml_monte_carlo_covariance_matches_the_bound(nominal, true_machine, corn
     est = []
     for seed in range(400):
         data = simulate_measurements(nominal, true_machine, corner_poses, normal, seed)
-        est.append(identify_ml(nominal, data, normal).values - true_machine.to_vector())
+        est.append(
+            estimate(nominal, data, "ml", noise=normal, with_bound=False).values - true_machine.to_vector()
+        )
     est = np.array(est)
     bound = np.diag(cramer_rao_covariance(true_machine, corner_poses, normal))
     ratio = est.var(axis=0) / bound

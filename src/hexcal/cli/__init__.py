@@ -165,7 +165,7 @@ def _noise(args: argparse.Namespace) -> NoiseModel:
 
 def cmd_identify(args: argparse.Namespace) -> None:
     from hexcal.core.parameters import select_parameters
-    from hexcal.estimation.likelihood import estimate, identify_gls
+    from hexcal.estimation.fitting import estimate
     from hexcal.estimation.robust import identify_robust, pose_diagnostics
     from hexcal.io import read_measurements
     from hexcal.report.text import format_identification_report, identification_summary
@@ -189,7 +189,11 @@ def cmd_identify(args: argparse.Namespace) -> None:
         used = data
     result = estimate(nominal, used, args.method, mask, noise)
     if not args.robust:
-        gls = result if args.method == "gls" else identify_gls(nominal, used, noise, mask)
+        gls = (
+            result
+            if args.method == "gls"
+            else estimate(nominal, used, "gls", mask, noise=noise, with_bound=False)
+        )
         diag = pose_diagnostics(gls, used, mask, noise=noise)
     flagged = tuple(used.ids[k] for k in diag.flagged)
     text = format_identification_report(result, outliers, flagged)
@@ -243,7 +247,7 @@ def cmd_validate(args: argparse.Namespace) -> None:
 
 
 def cmd_compensate(args: argparse.Namespace) -> None:
-    from hexcal.estimation.validation import compensate
+    from hexcal.core.compensation import compensate
 
     _check_outputs(args.out, args.corrected_poses)
     if args.corrected_poses and not args.nominal:
@@ -303,7 +307,7 @@ def _int_list(text: str, option: str) -> list[int]:
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
-    from hexcal.estimation.likelihood import ESTIMATORS
+    from hexcal.estimation.registry import ESTIMATORS
     from hexcal.simulation.study import STRATEGIES, fixed_strategy, format_study, run_study
 
     nominal = _geometry(args.geometry)

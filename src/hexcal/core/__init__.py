@@ -8,6 +8,7 @@ from hexcal._lazy import attach
 __getattr__, __dir__, __all__ = attach(
     __name__,
     {
+        "Compensation": "compensation",
         "DEFAULT_EULER": "conventions",
         "DEFAULT_FIT": "parameters",
         "FK_TOLERANCE": "kinematics",
@@ -34,7 +35,9 @@ __getattr__, __dir__, __all__ = attach(
         "box_corners": "workspace",
         "check_euler": "conventions",
         "column_norms": "linalg",
+        "compensate": "compensation",
         "euler_axes": "conventions",
+        "floored_whitener": "linalg",
         "forward_kinematics": "kinematics",
         "forward_kinematics_from_arrays": "kinematics",
         "gram_pinv": "linalg",
@@ -50,6 +53,7 @@ __getattr__, __dir__, __all__ = attach(
         "numerical_rank": "linalg",
         "orientation_error": "conventions",
         "parameter_names": "parameters",
+        "pose_errors": "kinematics",
         "pose_jacobian": "kinematics",
         "pose_jacobian_from_arrays": "kinematics",
         "preset": "presets",

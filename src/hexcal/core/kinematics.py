@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from hexcal.core.conventions import (
     as_poses,
     check_euler,
+    orientation_error,
     rotation_and_axes_t,
     rotation_matrices,
     rotation_matrices_t,
@@ -378,3 +379,12 @@ def forward_kinematics(
         tol=tol,
         max_iter=max_iter,
     )
+
+
+def pose_errors(
+    targets: ArrayLike, reached: ArrayLike, euler: str
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Position error (mm) and orientation error (rad, rotation angle) of each pose ``(..., 6)``."""
+    targets, reached = np.asarray(targets, dtype=float), np.asarray(reached, dtype=float)
+    position = np.linalg.norm(reached[..., :3] - targets[..., :3], axis=-1)
+    return position, orientation_error(targets[..., 3:], reached[..., 3:], euler)

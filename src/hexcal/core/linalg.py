@@ -102,3 +102,10 @@ def null_space(a: ArrayLike, rtol: float = RANK_RTOL) -> NDArray[np.float64]:
     sv = np.concatenate([svd.singular_values, np.zeros(svd.vt.shape[-1] - svd.singular_values.size)])
     rank = numerical_rank(sv, rtol)
     return svd.vt[rank:], svd.norms
+
+
+def floored_whitener(covariance: ArrayLike, floor: float) -> NDArray[np.float64]:
+    """``W`` with ``W C Wᵀ = I`` from the eigen-decomposition of ``C`` (k, k), eigenvalues
+    floored at ``floor`` so that a zero variance (an exact measurement) stays finite."""
+    vals, vecs = np.linalg.eigh(np.asarray(covariance, dtype=float))
+    return (vecs / np.sqrt(np.maximum(vals, floor))).T

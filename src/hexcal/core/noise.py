@@ -67,12 +67,30 @@ class NoiseModel:
         k = 1 / np.sqrt(3) if self.distribution == "uniform" else 1.0
         return (self.leg * k, self.position * k, self.orientation * k)
 
+    @property
+    def has_pose_noise(self) -> bool:
+        """Whether the pose measurement has any noise at all."""
+        return bool(np.any(self.pose_cov() != 0))
+
     def pose_cov(self) -> NDArray[np.float64]:
         """Covariance of the pose measurement error, shape (6, 6)."""
         if self.pose_covariance is not None:
             return np.array(self.pose_covariance)
         _, s_pos, s_ang = self.sigmas
         return np.diag([s_pos**2] * 3 + [s_ang**2] * 3)
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready form: the values as given and the standard deviations they imply."""
+        out: dict[str, object] = {
+            "leg": self.leg,
+            "position": self.position,
+            "orientation": self.orientation,
+            "distribution": self.distribution,
+            "sigmas": {"leg": self.sigmas[0], "position": self.sigmas[1], "orientation": self.sigmas[2]},
+        }
+        if self.pose_covariance is not None:
+            out["pose_covariance"] = self.pose_covariance.tolist()
+        return out
 
     def describe(self) -> str:
         """One line for reports."""

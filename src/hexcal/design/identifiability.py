@@ -34,7 +34,7 @@ from hexcal.estimation.bounds import (
     residual_covariances,
     whitened_jacobian,
 )
-from hexcal.estimation.identification import identification_jacobian
+from hexcal.estimation.problem import identification_jacobian
 
 SCALINGS = ("norm", "parameter", "none")
 

@@ -27,10 +27,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import inverse_kinematics, leg_readings, pose_jacobian
+from hexcal.core.linalg import gram_pinv, gram_pinv_diagonal, scaled_svd, whitening
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import select_parameters
-from hexcal.estimation.identification import identification_jacobian
+from hexcal.estimation.problem import identification_jacobian
 from hexcal.models.pose import Measurements
+
+#: Smallest leg sensor σ used in the likelihood (mm): a zero σ makes the legs exact
+#: constraints, which this floor approximates without dividing by zero.
+LEG_SIGMA_FLOOR = 1e-7
+
+#: Smallest pose error variance used in the likelihood (mm², rad²), for the same reason.
+POSE_VARIANCE_FLOOR = 1e-18
 
 
 def planned_measurements(geometry: Geometry, poses: ArrayLike) -> Measurements:
@@ -52,12 +60,6 @@ def residual_covariances(
     s_leg = noise.sigmas[0]
     jac = pose_jacobian(geometry, np.asarray(poses, dtype=float).reshape(-1, 6))
     return np.einsum("mik,kl,mjl->mij", jac, noise.pose_cov(), jac) + s_leg**2 * np.eye(6)
-
-
-def whitening(covariances: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Matrices ``W_j`` with ``W_jᵀ W_j = C_j⁻¹`` (inverse Cholesky factors), shape (m, 6, 6)."""
-    chol = np.linalg.cholesky(covariances)
-    return np.linalg.inv(chol)
 
 
 def whitened_jacobian(
@@ -107,11 +109,7 @@ def cramer_rao_covariance(
     readings: ArrayLike | None = None,
 ) -> NDArray[np.float64]:
     """Cramér–Rao bound: the inverse Fisher information (pseudo-inverse by SVD), shape (n, n)."""
-    wa = whitened_jacobian(geometry, poses, noise, mask, readings)
-    _, sv, vt = np.linalg.svd(wa, full_matrices=False)
-    keep = sv > sv[0] * 1e-12
-    vs = vt[keep].T / sv[keep]
-    return vs @ vs.T
+    return gram_pinv(scaled_svd(whitened_jacobian(geometry, poses, noise, mask, readings)))
 
 
 def bound_mean_abs_error(
@@ -142,6 +140,21 @@ def bound_mean_abs_error(
     sets = np.asarray(pose_sets, dtype=float)
     t, n = sets.shape[:2]
     wa = whitened_jacobian(geometry, sets.reshape(-1, 6), noise, mask).reshape(t, 6 * n, -1)
-    _, sv, vt = np.linalg.svd(wa, full_matrices=False)
-    variances = np.einsum("tkp,tk->tp", vt**2, 1.0 / sv**2)
+    variances = gram_pinv_diagonal(scaled_svd(wa))
     return np.sqrt(2 / np.pi) * np.sqrt(variances).mean(axis=1)
+
+
+def bound_stderr(
+    geometry: Geometry, measurements: Measurements, noise: NoiseModel | None, mask: ArrayLike
+) -> NDArray[np.float64]:
+    """Cramér–Rao σ of each varied parameter of ``geometry`` for the measured poses.
+
+    Zero where the noise model has no noise at all (the bound is then zero).
+    """
+    noise = NoiseModel() if noise is None else noise
+    if not noise.has_pose_noise and noise.sigmas[0] == 0:
+        return np.zeros(int(np.sum(mask)))
+    cov = cramer_rao_covariance(
+        geometry, measurements.poses, noise, np.asarray(mask, dtype=bool), measurements.readings
+    )
+    return np.sqrt(np.diag(cov))

@@ -35,25 +35,15 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
-from scipy.special import fdtri
 
 from hexcal.core.geometry import Geometry
+from hexcal.core.linalg import whitening
 from hexcal.core.noise import NoiseModel
-from hexcal.core.parameters import PARAMETER_SCALE, select_parameters
 from hexcal.errors import IdentificationError
-from hexcal.estimation.bounds import residual_covariances, whitening
-from hexcal.estimation.identification import (
-    IdentificationResult,
-    _jacobian,
-    _prepare,
-    _residuals,
-    check_data_size,
-    identification_jacobian,
-    identify,
-    parameter_unpacker,
-)
-from hexcal.estimation.likelihood import LEG_SIGMA_FLOOR, identify_gls
+from hexcal.estimation.bounds import LEG_SIGMA_FLOOR, residual_covariances
+from hexcal.estimation.problem import Problem
+from hexcal.estimation.registry import get_estimator
+from hexcal.estimation.result import IdentificationResult
 from hexcal.models.pose import Measurements
 
 #: Family-wise false alarm rate of the outlier test over all poses of a data set.
@@ -62,6 +52,10 @@ DEFAULT_ALPHA = 0.01
 #: A pose whose leverage block has an eigenvalue above this cannot be checked: the
 #: fit follows it whatever it says (it alone determines some parameter combination).
 MAX_LEVERAGE = 1 - 1e-6
+
+#: Screening: a pose whose largest leg residual under the robust fit exceeds this many
+#: robust standard deviations is set aside before the least-squares fit.
+SCREEN_THRESHOLD = 8.0
 
 
 @dataclass(frozen=True)
@@ -93,57 +87,62 @@ class PoseDiagnostics:
     def uncheckable(self) -> NDArray[np.intp]:
         return np.flatnonzero(~np.isfinite(self.statistic))
 
+    def to_dict(self, ids: tuple[str, ...] | None = None) -> dict[str, object]:
+        """Statistics, threshold and flagged poses (by id when ``ids`` are given)."""
+        label = (lambda k: ids[k]) if ids is not None else int
+        return {
+            "statistic": self.statistic.tolist(),
+            "threshold": self.threshold,
+            "leverage": self.leverage.tolist(),
+            "flagged": [label(k) for k in self.flagged],
+        }
 
-def pose_diagnostics(
-    result: IdentificationResult,
-    measurements: Measurements,
-    mask: ArrayLike,
+
+def block_diagnostics(
+    residuals: NDArray[np.float64],
+    jacobian: NDArray[np.float64],
     alpha: float = DEFAULT_ALPHA,
-    noise: NoiseModel | None = None,
+    exact: bool = True,
 ) -> PoseDiagnostics:
-    """Outlier statistics of every pose of a fit (see the module docstring).
+    """Deletion statistics of groups of residuals in a linear(ised) least-squares model.
 
-    With ``noise``, ``result`` should be the generalised least-squares fit
-    (:func:`hexcal.estimation.likelihood.identify_gls`) for the statistic to be exact; without, a
-    least-squares fit of its ``method``.
+    Parameters
+    ----------
+    residuals : ndarray, shape (m, k)
+        ``k`` residuals of each of ``m`` groups (poses) at the solution.
+    jacobian : ndarray, shape (m k, p)
+        Their Jacobian with respect to the ``p`` varied parameters.
+    alpha : float
+        Family-wise false alarm rate (Bonferroni over the groups).
+    exact : bool
+        The residuals are whitened (independent, equal variance): threshold from
+        F(k, dof); otherwise the conservative F(1, dof) (module docstring).
     """
-    mask = np.asarray(mask, dtype=bool)
-    m, p = len(measurements), int(mask.sum())
-    if noise is None:
-        method = result.method if result.method in ("length", "paper") else "length"
-        jac = identification_jacobian(result.geometry, measurements, method, mask)
-        rot, pos = _prepare(result.geometry, measurements.poses)
-        r = _residuals(result.geometry.to_vector(gains=True), rot, pos, measurements.readings, method)
-    else:
-        w = whitening(residual_covariances(result.geometry, measurements.poses, _floored(noise)))
-        a = identification_jacobian(result.geometry, measurements, "length", mask).reshape(m, 6, p)
-        jac = np.einsum("mij,mjk->mik", w, a).reshape(6 * m, p)
-        rot, pos = _prepare(result.geometry, measurements.poses)
-        raw = _residuals(result.geometry.to_vector(gains=True), rot, pos, measurements.readings, "length")
-        r = np.einsum("mij,mj->mi", w, raw)
-    q, _ = np.linalg.qr(jac / np.linalg.norm(jac, axis=0))
-    qb = q.reshape(m, 6, p)
-    hat = np.einsum("mik,mjk->mij", qb, qb)  # (m, 6, 6) diagonal blocks of H
+    from scipy.special import fdtri  # not scipy.stats: that costs half a second of import time
+
+    m, k = residuals.shape
+    p = jacobian.shape[1]
+    q, _ = np.linalg.qr(jacobian / np.linalg.norm(jacobian, axis=0))
+    qb = q.reshape(m, k, p)
+    hat = np.einsum("mik,mjk->mij", qb, qb)  # (m, k, k) diagonal blocks of H
     leverage = np.linalg.eigvalsh(hat)[:, -1]
-    sse = float(np.sum(r**2))
-    dof = 6 * m - p - 6
+    sse = float(np.sum(residuals**2))
+    dof = k * m - p - k
     ok = leverage < MAX_LEVERAGE
     stat = np.full(m, np.nan)
+    r = residuals
     if dof > 0 and ok.any():
-        eye = np.eye(6)
+        eye = np.eye(k)
         delta = np.einsum("mi,mi->m", r[ok], np.linalg.solve(eye - hat[ok], r[ok][..., None])[..., 0])
-        stat[ok] = (delta / 6) / (np.maximum(sse - delta, 1e-300) / dof)
-    # scipy.special, not scipy.stats: the latter costs half a second of import time
+        stat[ok] = (delta / k) / (np.maximum(sse - delta, 1e-300) / dof)
     if dof <= 0:
         threshold = np.inf
-    elif noise is None:
-        threshold = float(fdtri(1, dof, 1 - alpha / m))
     else:
-        threshold = float(fdtri(6, dof, 1 - alpha / m))
+        threshold = float(fdtri(k if exact else 1, dof, 1 - alpha / m))
     return PoseDiagnostics(stat, threshold, leverage)
 
 
-def _floored(noise: NoiseModel) -> NoiseModel:
+def floored(noise: NoiseModel) -> NoiseModel:
     """The noise model with a leg σ of at least LEG_SIGMA_FLOOR (keeps C_j invertible)."""
     return NoiseModel(
         leg=max(noise.sigmas[0], LEG_SIGMA_FLOOR),
@@ -152,9 +151,30 @@ def _floored(noise: NoiseModel) -> NoiseModel:
     )
 
 
-#: Screening: a pose whose largest leg residual under the robust fit exceeds this many
-#: robust standard deviations is set aside before the least-squares fit.
-SCREEN_THRESHOLD = 8.0
+def pose_diagnostics(
+    result: IdentificationResult,
+    measurements: Measurements,
+    mask: ArrayLike,
+    alpha: float = DEFAULT_ALPHA,
+    noise: NoiseModel | None = None,
+) -> PoseDiagnostics:
+    """Outlier statistics of every pose of a full-pose fit (see the module docstring).
+
+    With ``noise``, ``result`` should be the generalised least-squares fit for the statistic
+    to be exact; without, a least-squares fit of its ``method``.
+    """
+    problem = Problem(result.geometry, measurements, mask=mask)
+    m = len(problem)
+    if noise is None:
+        variant = result.method if result.method in ("length", "paper") else "length"
+        jac = problem.leg_jacobian(problem.full0, variant, scaled=False)
+        r = problem.leg_residuals(problem.full0, variant)
+    else:
+        w = whitening(residual_covariances(result.geometry, measurements.poses, floored(noise)))
+        a = problem.leg_jacobian(problem.full0, "length", scaled=False).reshape(m, 6, -1)
+        jac = np.einsum("mij,mjk->mik", w, a).reshape(6 * m, -1)
+        r = np.einsum("mij,mj->mi", w, problem.leg_residuals(problem.full0))
+    return block_diagnostics(r, jac, alpha, exact=noise is not None)
 
 
 def screen_poses(
@@ -168,20 +188,11 @@ def screen_poses(
     ``max_i |r_ji| / scale`` for every pose ``j``. Several gross errors that would drag
     a least-squares fit (and hide each other from its diagnostics) stand out here.
     """
-    rot, pos = _prepare(start, measurements.poses)
-    readings = measurements.readings
-    full0 = start.to_vector(gains=True)
-    scale_p = PARAMETER_SCALE[mask]
+    from scipy.optimize import least_squares
 
-    unpack = parameter_unpacker(full0, mask)
-
-    def fun(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return _residuals(unpack(x), rot, pos, readings, "length").ravel()
-
-    def jac(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return _jacobian(unpack(x), rot, pos, readings, "length")[:, mask] * scale_p
-
-    x = np.zeros(int(mask.sum()))
+    problem = Problem(start, measurements, mask=mask)
+    fun, jac = problem.least_squares_functions("length")
+    x = np.zeros(problem.n_free)
     f_scale = 1.0
     for _ in range(rounds):
         sol = least_squares(fun, x, jac=jac, method="trf", loss="soft_l1", f_scale=f_scale, x_scale=1.0)
@@ -198,7 +209,7 @@ class RobustResult:
     Attributes
     ----------
     result : IdentificationResult
-        The fit on the poses kept.
+        The fit on the poses kept (its ``outliers`` name the poses removed).
     outliers : tuple of str
         Ids of the poses removed, in the order they were found.
     diagnostics : PoseDiagnostics
@@ -216,17 +227,17 @@ class RobustResult:
 def identify_robust(
     start: Geometry,
     measurements: Measurements,
-    method: str = "length",
+    method: str | None = None,
     mask: ArrayLike | None = None,
     alpha: float = DEFAULT_ALPHA,
     max_fraction: float = 0.25,
     noise: NoiseModel | None = None,
 ) -> RobustResult:
-    """Identify without the outlying poses.
+    """Identify with any registered estimator, without the outlying poses.
 
     1. Screening: poses with a gross residual under a robust soft-L1 fit
        (:func:`screen_poses`) are set aside.
-    2. Backward: least squares on the rest; the most significant pose of
+    2. Backward: the estimator ``method`` fits the rest; the most significant pose of
        :func:`pose_diagnostics` is removed and the fit repeated until none is flagged.
     3. Forward: each pose set aside is tried again, and re-admitted when it is not
        flagged in the fit that includes it.
@@ -235,7 +246,9 @@ def identify_robust(
     ----------
     start : Geometry
     measurements : Measurements
-    method : {"length", "paper"}
+    method : str, optional
+        Any estimator of :data:`hexcal.estimation.registry.ESTIMATORS`; default ``gls``
+        with a noise model and ``length`` without.
     mask : array_like of bool, shape (48,), optional
     alpha : float
         Family-wise false alarm rate of the outlier test.
@@ -243,12 +256,14 @@ def identify_robust(
         At most this fraction of the poses may be removed; more is an error (the data
         are not a calibration with a few gross errors).
     noise : NoiseModel, optional
-        With a noise model the fits are generalised least squares and the test is the
-        exact F(6, dof) one; without, least squares of ``method`` with the conservative
-        threshold (module docstring).
+        With a noise model the test is the exact F(6, dof) one on the whitened residuals;
+        without, the conservative threshold on the fit's own residuals (module docstring).
     """
-    mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
-    check_data_size(measurements, mask)
+    method = ("gls" if noise is not None else "length") if method is None else method
+    estimator = get_estimator(method)
+    problem = Problem(start, measurements, mask=mask)
+    problem.check_size()
+    mask = problem.mask
     m = len(measurements)
     limit = int(np.floor(max_fraction * m))
     keep = np.ones(m, dtype=bool)
@@ -259,12 +274,9 @@ def identify_robust(
     order = [int(j) for j in np.argsort(-scores) if not keep[j]]
 
     def fit(sel: NDArray[np.bool_]) -> tuple[IdentificationResult, PoseDiagnostics]:
-        sub = measurements.subset(sel)
-        if noise is None:
-            res = identify(start, sub, method=method, mask=mask)
-        else:
-            res = identify_gls(start, sub, noise, mask)
-        return res, pose_diagnostics(res, sub, mask, alpha, noise)
+        sub = problem.subset(sel)
+        res = estimator.fit(sub, noise if estimator.uses_noise else None)
+        return res, pose_diagnostics(res, sub.data, mask, alpha, noise)
 
     result, diag = fit(keep)
     while diag.flagged.size:
@@ -288,4 +300,5 @@ def identify_robust(
         if dg.flagged.size == 0 and np.isfinite(dg.statistic[pos_in_fit]):
             keep, result, diag = trial, res, dg
             order.remove(j)
-    return RobustResult(result, tuple(measurements.ids[j] for j in order), diag, np.flatnonzero(keep))
+    outliers = tuple(measurements.ids[j] for j in order)
+    return RobustResult(result.replace(outliers=outliers), outliers, diag, np.flatnonzero(keep))

@@ -8,6 +8,15 @@ from hexcal._lazy import attach
 __getattr__, __dir__, __all__ = attach(
     __name__,
     {
+        "FullPoseModel": "pose",
+        "MODELS": "registry",
+        "MeasurementModel": "base",
         "Measurements": "pose",
+        "VARIANTS": "legs",
+        "check_variant": "legs",
+        "leg_parameter_jacobian": "legs",
+        "leg_residuals": "legs",
+        "model_by_name": "registry",
+        "pose_frames": "legs",
     },
 )

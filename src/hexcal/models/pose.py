@@ -14,7 +14,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.conventions import as_poses
+from hexcal.core.geometry import Geometry
+from hexcal.core.noise import NoiseModel
 from hexcal.errors import UsageError
+from hexcal.models.base import MeasurementModel
 
 
 @dataclass(frozen=True, eq=False)
@@ -64,3 +67,41 @@ class Measurements:
         """The measurements at ``index`` (an integer or boolean index)."""
         idx = np.arange(len(self))[np.asarray(index)]
         return Measurements(self.poses[idx], self.readings[idx], tuple(self.ids[i] for i in idx))
+
+
+class FullPoseModel(MeasurementModel):
+    """The instrument reads the platform pose in the base frame: ``h(P) = P``.
+
+    Its noise is the pose measurement noise of a :class:`~hexcal.core.noise.NoiseModel`
+    (``position`` and ``orientation``, or a full 6×6 ``pose_covariance``). The leg residual
+    variants ``length`` and ``paper`` evaluate the legs at the measured poses.
+
+    >>> model = FullPoseModel()
+    >>> model.predict(np.empty(0), np.zeros((2, 6)), "XYZ").shape
+    (2, 6)
+    """
+
+    name = "pose"
+    size = 6
+    measures_pose = True
+
+    def observed(self, data: Measurements) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        return data.poses, np.ones(data.poses.shape, dtype=bool)
+
+    def predict(
+        self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
+    ) -> NDArray[np.float64]:
+        return poses
+
+    def pose_jacobian(
+        self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
+    ) -> NDArray[np.float64]:
+        return np.broadcast_to(np.eye(6), (len(poses), 6, 6))
+
+    def covariance(self, noise: NoiseModel) -> NDArray[np.float64]:
+        return noise.pose_cov()
+
+    def start_poses(
+        self, geometry: Geometry, setup: NDArray[np.float64], data: Measurements
+    ) -> NDArray[np.float64]:
+        return np.array(data.poses)

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.estimation.identification import IdentificationResult
+from hexcal.estimation.result import IdentificationResult
 from hexcal.simulation.campaign import PaperExperiment
 
 #: The seed paper's Table I (mean absolute parameter error, mm) and its validation claims.

@@ -41,7 +41,7 @@ from hexcal.core.parameters import N_BASE_PARAMETERS, select_parameters
 from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.errors import IdentificationError, SimulationError
 from hexcal.estimation.bounds import bound_mean_abs_error
-from hexcal.estimation.likelihood import estimate
+from hexcal.estimation.fitting import estimate
 from hexcal.models.pose import Measurements
 
 Progress = Callable[[int, int], None]

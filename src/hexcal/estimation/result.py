@@ -1,0 +1,249 @@
+"""The one result type of every estimator, :class:`IdentificationResult`, and how it is built.
+
+Imports :mod:`hexcal.core`, :mod:`hexcal.models` and :mod:`hexcal.estimation.problem`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hexcal.core.geometry import Geometry
+from hexcal.core.linalg import gram_pinv, numerical_rank, scaled_svd
+from hexcal.core.noise import NoiseModel
+from hexcal.errors import IdentificationError
+from hexcal.estimation.problem import Problem
+
+
+@dataclass(frozen=True, eq=False)
+class IdentificationResult:
+    """Outcome of an identification (after lmfit's ``MinimizerResult``).
+
+    Attributes
+    ----------
+    geometry : Geometry
+        The identified geometry (the start geometry with the varied parameters replaced).
+    start : Geometry
+        The geometry the identification started from (usually the nominal one).
+    method : str
+        Registry name of the estimator.
+    names : tuple of str
+        Names of the varied parameters.
+    values, start_values, stderr : ndarray, shape (n,)
+        Identified values, start values and standard errors of the varied parameters.
+    covariance, correlation : ndarray, shape (n, n)
+    singular_values : ndarray, shape (n,)
+        Singular values of the column-normalised Jacobian at the solution, descending.
+    singular_vectors : ndarray, shape (n, n)
+        Row ``k`` is the (normalised-parameter) combination of ``singular_values[k]``.
+    rank : int
+    residuals : ndarray, shape (m, k)
+        Residuals at the solution (units of the method; whitened for ``ml`` and ``gls``).
+    leg_rms_before, leg_rms_after : float
+        RMS of the leg length residual ``|v| - (l0 + g dl)`` at the start and at the
+        solution, mm (comparable across methods).
+    rms_before, rms_after : float
+        RMS of the method's own residual.
+    cost : float
+        ``0.5 * sum(residuals**2)`` at the solution.
+    nfev, njev : int
+        Function and Jacobian evaluations (``njev`` counts the LM iterations).
+    status : int
+    message : str
+    n_poses : int
+    ids : tuple of str
+        Ids of the poses used.
+    dof : int
+        Degrees of freedom: independent residuals less the varied parameters.
+    bound : ndarray, shape (n,), optional
+        Cramér–Rao σ of each parameter under ``noise``.
+    noise : NoiseModel, optional
+        The noise model used by the estimator or the bound.
+    outliers : tuple of str
+        Ids of the poses left out as outliers (robust fitting).
+    flagged : tuple of str
+        Ids of poses whose residuals are implausible under the noise model.
+    model : str
+        Name of the measurement model.
+    """
+
+    geometry: Geometry
+    start: Geometry
+    method: str
+    names: tuple[str, ...]
+    values: NDArray[np.float64]
+    start_values: NDArray[np.float64]
+    stderr: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    correlation: NDArray[np.float64]
+    singular_values: NDArray[np.float64]
+    singular_vectors: NDArray[np.float64]
+    rank: int
+    residuals: NDArray[np.float64]
+    leg_rms_before: float
+    leg_rms_after: float
+    rms_before: float
+    rms_after: float
+    cost: float
+    nfev: int
+    njev: int
+    status: int
+    message: str
+    n_poses: int
+    ids: tuple[str, ...] = field(default=())
+    dof: int = 0
+    bound: NDArray[np.float64] | None = None
+    noise: NoiseModel | None = None
+    outliers: tuple[str, ...] = ()
+    flagged: tuple[str, ...] = ()
+    model: str = "pose"
+
+    @property
+    def reduced_chi2(self) -> float:
+        """Residual variance per degree of freedom (about 1 for whitened residuals under a
+        correct noise model)."""
+        return float(np.sum(self.residuals**2) / self.dof) if self.dof > 0 else float("nan")
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """Identified values by name."""
+        return dict(zip(self.names, self.values.tolist(), strict=True))
+
+    @property
+    def standard_errors(self) -> dict[str, float]:
+        """Standard errors by name."""
+        return dict(zip(self.names, self.stderr.tolist(), strict=True))
+
+    def replace(self, **changes: Any) -> IdentificationResult:
+        """Copy with some fields changed."""
+        return dataclasses.replace(self, **changes)
+
+    def calibration_metadata(self) -> dict[str, Any]:
+        """The ``calibration:`` mapping written into a calibrated geometry file."""
+        out: dict[str, Any] = {
+            "method": self.method,
+            "poses": self.n_poses,
+            "leg_rms_before_mm": self.leg_rms_before,
+            "leg_rms_after_mm": self.leg_rms_after,
+            "iterations": self.njev,
+            "status": self.status,
+            "rank": self.rank,
+            "stderr": self.standard_errors,
+        }
+        if self.bound is not None:
+            out["bound"] = dict(zip(self.names, self.bound.tolist(), strict=True))
+        if self.noise is not None:
+            out["noise"] = self.noise.describe()
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """Everything a report needs, JSON-ready (the ``--json`` file of ``hexcal identify``).
+
+        Lengths in mm, angles in rad; ``correlation`` row-major over ``names``.
+        """
+        return {
+            "method": self.method,
+            "model": self.model,
+            "poses": self.n_poses,
+            "parameters": self.parameters,
+            "start": dict(zip(self.names, self.start_values.tolist(), strict=True)),
+            "stderr": self.standard_errors,
+            "bound": None if self.bound is None else dict(zip(self.names, self.bound.tolist(), strict=True)),
+            "noise": None if self.noise is None else self.noise.to_dict(),
+            "rank": self.rank,
+            "n_parameters": len(self.names),
+            "dof": self.dof,
+            "reduced_chi_square": self.reduced_chi2,
+            "singular_values": self.singular_values.tolist(),
+            "singular_vectors": self.singular_vectors.tolist(),
+            "names": list(self.names),
+            "correlation": self.correlation.tolist(),
+            "leg_rms_before": self.leg_rms_before,
+            "leg_rms_after": self.leg_rms_after,
+            "rms_before": self.rms_before,
+            "rms_after": self.rms_after,
+            "cost": self.cost,
+            "iterations": self.njev,
+            "function_evaluations": self.nfev,
+            "status": self.status,
+            "message": self.message,
+            "outliers": list(self.outliers),
+            "flagged": list(self.flagged),
+            "ids": list(self.ids),
+        }
+
+
+def rms(x: NDArray[np.float64]) -> float:
+    """Root mean square of all entries."""
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def finish_result(
+    problem: Problem,
+    method: str,
+    full: NDArray[np.float64],
+    residuals: NDArray[np.float64],
+    jac_scaled: NDArray[np.float64],
+    rms_before: float,
+    sol: Any,
+    dof: int | None = None,
+    leg_rms: tuple[float, float] | None = None,
+) -> IdentificationResult:
+    """Build the result of a converged fit (shared by all estimators).
+
+    ``jac_scaled`` is the Jacobian of ``residuals`` with respect to the varied parameters in
+    solver units; ``dof`` defaults to ``residuals.size - n``. The covariance is
+    ``s² (JᵀJ)⁺`` from the SVD of the column-normalised Jacobian (as
+    ``scipy.optimize.curve_fit`` does), with ``s²`` the residual variance per degree of
+    freedom. ``leg_rms`` (before, after) defaults to the leg length residuals at the
+    measured poses.
+    """
+    n_vary = problem.n_free
+    svd = scaled_svd(jac_scaled)
+    rank = numerical_rank(svd.singular_values)
+    if rank < n_vary:
+        raise IdentificationError(
+            f"rank-deficient Jacobian at the solution (rank {rank} of {n_vary}; weakest "
+            f"combination: {problem.combination(svd.vt[-1])})"
+        )
+    dof = residuals.size - n_vary if dof is None else dof
+    # an exactly determined fit (dof 0) has no residual to estimate the noise from
+    s2 = float(residuals @ residuals) / dof if dof > 0 else float("nan")
+    cov = gram_pinv(svd) * s2 * np.outer(problem.scale, problem.scale)
+    stderr = np.sqrt(np.diag(cov))
+    corr = cov / np.outer(stderr, stderr)
+    if leg_rms is None:
+        leg_rms = (rms(problem.leg_residuals(problem.full0)), rms(problem.leg_residuals(full)))
+    mask = problem.mask
+    return IdentificationResult(
+        geometry=problem.geometry(full),
+        start=problem.start,
+        method=method,
+        names=problem.names,
+        values=full[mask],
+        start_values=problem.full0[mask],
+        stderr=stderr,
+        covariance=cov,
+        correlation=corr,
+        singular_values=svd.singular_values,
+        singular_vectors=svd.vt,
+        rank=rank,
+        residuals=residuals.reshape(len(problem), -1),
+        leg_rms_before=leg_rms[0],
+        leg_rms_after=leg_rms[1],
+        rms_before=rms_before,
+        rms_after=rms(residuals),
+        cost=float(sol.cost),
+        nfev=int(sol.nfev),
+        njev=int(sol.njev or 0),
+        status=int(sol.status),
+        message=str(sol.message),
+        n_poses=len(problem),
+        ids=problem.ids,
+        dof=dof,
+        model=problem.model.name,
+    )

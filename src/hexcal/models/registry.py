@@ -1,0 +1,26 @@
+"""Measurement models by name: a new instrument is one new module plus one line here.
+
+>>> sorted(MODELS)
+['pose']
+>>> model_by_name("pose").measures_pose
+True
+"""
+
+from __future__ import annotations
+
+from hexcal.errors import UsageError
+from hexcal.models.base import MeasurementModel
+from hexcal.models.pose import FullPoseModel
+
+#: Measurement model classes by name.
+MODELS: dict[str, type[MeasurementModel]] = {
+    FullPoseModel.name: FullPoseModel,
+}
+
+
+def model_by_name(name: str) -> MeasurementModel:
+    """A new instance of the model registered as ``name``."""
+    try:
+        return MODELS[name]()
+    except KeyError:
+        raise UsageError(f"unknown measurement model {name!r}; choose from {', '.join(MODELS)}") from None
