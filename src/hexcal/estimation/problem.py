@@ -92,6 +92,8 @@ class Problem:
         self.ids = self.model.ids(data)
         self.euler = start.euler
         self._frames: tuple[NDArray, NDArray] | None = None
+        self.observed, self.present = self.model.observed(data)
+        self.complete = bool(self.present.all())
 
     # -- bookkeeping -------------------------------------------------------------------
     def __len__(self) -> int:
@@ -129,8 +131,7 @@ class Problem:
                     f"{m} poses cannot determine the parameters: at least {min_poses} are needed "
                     f"(each leg has {min_poses} parameters and gets one equation per pose)"
                 )
-        _, present = self.model.observed(self.data)
-        equations = 6 * m if self.model.measures_pose else int(present.sum())
+        equations = 6 * m if self.model.measures_pose else int(self.present.sum())
         if equations < n:
             raise IdentificationError(f"{equations} equations for {n} parameters: measure more poses")
 
@@ -239,15 +240,13 @@ class Problem:
         u, s = machine[:18].reshape(6, 3), machine[18:36].reshape(6, 3)
         lengths, jp = pose_jacobian_from_arrays(u, s, poses, self.euler)
         model_lengths = machine[36:42] + machine[42:48] * self.readings
-        observed, present = self.model.observed(self.data)
-        complete = bool(present.all())
-        w = instrument_whitener
-        delta = self.model.predict(setup, poses, self.euler) - observed
-        if not complete:
+        present, w = self.present, instrument_whitener
+        delta = self.model.predict(setup, poses, self.euler) - self.observed
+        if not self.complete:
             delta = np.where(present, delta, 0.0)
         e_inst = delta @ w.T
-        dh = np.matmul(w, self.model.pose_jacobian(setup, poses, self.euler))
-        if not complete:
+        dh = self.model.whitened_pose_jacobian(setup, poses, self.euler, w)
+        if not self.complete:
             e_inst = np.where(present, e_inst, 0.0)
             dh = np.where(present[..., None], dh, 0.0)
         e = np.concatenate([(lengths - model_lengths) / leg_sigma, e_inst], axis=1)
@@ -275,9 +274,8 @@ class Problem:
         if not setup_mask.any():
             return np.concatenate([a_leg, np.zeros((m, k, a_leg.shape[-1]))], axis=1)
         dsetup = np.matmul(w, self.model.setup_jacobian(setup, poses, self.euler))
-        _, present = self.model.observed(self.data)
-        if not present.all():
-            dsetup = np.where(present[..., None], dsetup, 0.0)
+        if not self.complete:
+            dsetup = np.where(self.present[..., None], dsetup, 0.0)
         a_inst = dsetup[:, :, setup_mask] * self.scale[int(self.machine_mask.sum()) :]
         a_leg = np.concatenate([a_leg, np.zeros((m, 6, a_inst.shape[-1]))], axis=2)
         a_inst = np.concatenate([np.zeros((m, k, a_leg.shape[-1] - a_inst.shape[-1])), a_inst], axis=2)
@@ -285,8 +283,7 @@ class Problem:
 
     def observation_counts(self) -> NDArray[np.intp]:
         """Equations per observation after the six pose unknowns: ``6 + present values - 6``."""
-        _, present = self.model.observed(self.data)
-        return present.sum(axis=1)
+        return self.present.sum(axis=1)
 
 
 def measurements_problem(

@@ -63,6 +63,16 @@ class MeasurementModel(ABC):
     ) -> NDArray[np.float64]:
         """``d predict / d pose``, shape ``(m, size, 6)``."""
 
+    def whitened_pose_jacobian(
+        self,
+        setup: NDArray[np.float64],
+        poses: NDArray[np.float64],
+        euler: str,
+        whitener: NDArray[np.float64],
+    ) -> NDArray[np.float64]:
+        """``W d predict / d pose`` for a whitening matrix ``W`` (size, size): ``(m, size, 6)``."""
+        return np.matmul(whitener, self.pose_jacobian(setup, poses, euler))
+
     def setup_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:

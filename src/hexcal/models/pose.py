@@ -98,6 +98,15 @@ class FullPoseModel(MeasurementModel):
     ) -> NDArray[np.float64]:
         return np.broadcast_to(np.eye(6), (len(poses), 6, 6))
 
+    def whitened_pose_jacobian(
+        self,
+        setup: NDArray[np.float64],
+        poses: NDArray[np.float64],
+        euler: str,
+        whitener: NDArray[np.float64],
+    ) -> NDArray[np.float64]:
+        return np.broadcast_to(whitener, (len(poses), 6, 6))
+
     def covariance(self, noise: NoiseModel) -> NDArray[np.float64]:
         return noise.pose_cov()
 
