@@ -3,7 +3,7 @@
 Imports numpy and :mod:`hexcal.errors`.
 
 >>> noise = NoiseModel(leg=0.01, position=0.025, orientation=0.001)   # uniform half-widths
->>> [round(s, 6) for s in noise.sigmas]
+>>> [round(float(s), 6) for s in noise.sigmas]
 [0.005774, 0.014434, 0.000577]
 """
 
