@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from hexcal.cli_linuxcnc import register as register_linuxcnc
 from hexcal.geometry import Geometry, GeometryError
 from hexcal.identification import IdentificationError
 from hexcal.io import (
@@ -598,6 +599,8 @@ def build_parser() -> argparse.ArgumentParser:
     from hexcal.cli_plan import register
 
     register(sub, geometry_help)
+
+    register_linuxcnc(sub, geometry_help)
 
     p = sub.add_parser("simulate", help="Monte Carlo study of calibration campaigns")
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {geometry_help}")

@@ -259,7 +259,7 @@ def export_linuxcnc(
                 ]
         else:
             ini += [
-                f"# [AXIS_A], [AXIS_B], [AXIS_C]: not written; the workspace's angle ranges are in the",
+                "# [AXIS_A], [AXIS_B], [AXIS_C]: not written; the workspace's angle ranges are in the",
                 f"# sequence {geometry.euler!r}, which is not a box in LinuxCNC's A B C",
                 "",
             ]
@@ -463,7 +463,9 @@ def import_linuxcnc(
                 )
             scale = _LINEAR_UNITS[unit]
             if scale != 1.0:
-                warnings.append(f"{ini_name}: LINEAR_UNITS is {units[0]}: lengths converted to mm (x {scale})")
+                warnings.append(
+                    f"{ini_name}: LINEAR_UNITS is {units[0]}: lengths converted to mm (x {scale})"
+                )
         angular = ini.get("TRAJ", "ANGULAR_UNITS")
         if angular is not None and angular[0].strip().lower() not in ("degree", "deg", "degrees"):
             raise LinuxCNCFormatError(
@@ -509,7 +511,9 @@ def import_linuxcnc(
         home_words = ini.numbers("TRAJ", "HOME")
         if home_words is not None and len(home_words) != 6:
             line = ini.get("TRAJ", "HOME")[1]  # type: ignore[index]
-            warnings.append(f"{ini_name}: line {line}: [TRAJ] HOME has {len(home_words)} values, not 6: ignored")
+            warnings.append(
+                f"{ini_name}: line {line}: [TRAJ] HOME has {len(home_words)} values, not 6: ignored"
+            )
             home_words = None
     if home_words is None and home_pose is not None:
         home_words = [float(v) for v in np.asarray(home_pose, dtype=float).ravel()]
@@ -554,10 +558,14 @@ def import_linuxcnc(
         l0[no_offset] = at_home[no_offset] / scale
         where = "--home" if (home_pose is not None and ini_text is None) else "[TRAJ] HOME"
         pose_text = " ".join(f"{v:g}" for v in home_words)
-        what = "no INI file" if ini is None else "no [JOINT_N] HOME_OFFSET for joint(s) " + ", ".join(
-            str(n) for n in no_offset
+        what = (
+            "no INI file"
+            if ini is None
+            else "no [JOINT_N] HOME_OFFSET for joint(s) " + ", ".join(str(n) for n in no_offset)
         )
-        source = f"the default home pose X Y Z A B C = {pose_text}" if default_home else f"{where} {pose_text}"
+        source = (
+            f"the default home pose X Y Z A B C = {pose_text}" if default_home else f"{where} {pose_text}"
+        )
         warnings.append(f"{what}: initial leg lengths l0 are the strut lengths at {source}")
     l0 = l0 * scale
 
@@ -588,7 +596,9 @@ def import_linuxcnc(
                     "(give one in the geometry YAML)"
                 )
             elif np.any(arr[:, 0] > arr[:, 1]):
-                warnings.append(f"{ini_name}: an [AXIS_*] MIN_LIMIT exceeds its MAX_LIMIT: no workspace taken")
+                warnings.append(
+                    f"{ini_name}: an [AXIS_*] MIN_LIMIT exceeds its MAX_LIMIT: no workspace taken"
+                )
             else:
                 arr[:3] *= scale
                 arr[3:] = np.deg2rad(arr[3:])
