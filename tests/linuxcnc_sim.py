@@ -113,7 +113,8 @@ DRIVER = textwrap.dedent(
                 c.mdi("G0 " + " ".join(w + repr(v) for w, v in zip("XYZABC", pose)))
                 c.wait_complete(TIMEOUT)
                 wait("the move to %r" % (pose,), lambda: s.interp_state == linuxcnc.INTERP_IDLE
-                     and s.queue == 0 and s.inpos and s.state == linuxcnc.RCS_DONE)
+                     and s.queue == 0 and s.inpos and s.state == linuxcnc.RCS_DONE
+                     and max(abs(p - q) for p, q in zip(s.position[:6], pose)) < 1e-6)
                 time.sleep(0.01)  # a few servo cycles: feedback = command
                 s.poll()
                 rows.append({"joints": list(s.joint_actual_position[:6]),
