@@ -137,8 +137,24 @@ def test_import_without_ini_takes_l0_at_the_home_pose_and_says_so():
     assert len(warnings) == 1 and "0 0 800 0 0 0" in warnings[0]
 
 
+def test_joints_without_home_offset_take_l0_at_the_given_home_pose():
+    g = awkward()
+    ini = "[JOINT_0]\nHOME_OFFSET = 600.5\n"
+    back, warnings = import_linuxcnc(export_linuxcnc(g)[HAL_FILE], ini, home_pose=[0, 0, 800, 0, 0, 0])
+    assert back.initial_leg_lengths[0] == 600.5
+    assert np.array_equal(back.initial_leg_lengths[1:], inverse_kinematics(back, back.home_pose)[1:])
+    (warning,) = warnings
+    assert (
+        "joint(s) 1, 2, 3, 4, 5" in warning and "the given home pose X Y Z A B C = 0 0 800 0 0 0" in warning
+    )
+
+
 def test_unset_coordinates_take_genhexkins_defaults_with_a_warning_naming_them():
-    hal = "loadrt genhexkins\nsetp genhexkins.base.0.x 1.5  # comment\nsetp genhexkins.platform.5.z -2\n"
+    hal = (
+        "loadrt genhexkins\nsetp genhexkins.base.0.x 1.5  # comment\nsetp genhexkins.platform.5.z -2\n"
+        "setp genhexkins.max-error [KINS]MAX_ERROR\n"
+        "net tool-offset genhexkins.tool-offset motion.tooloffset.z\n"
+    )
     g, warnings = import_linuxcnc(hal)
     base, platform = GENHEXKINS_DEFAULT_BASE.copy(), GENHEXKINS_DEFAULT_PLATFORM.copy()
     base[0, 0], platform[5, 2] = 1.5, -2.0

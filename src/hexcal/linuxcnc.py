@@ -31,7 +31,6 @@ import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -364,6 +363,10 @@ def parse_hal(text: str, name: str = "HAL file", ini: IniFile | None = None) -> 
         if not tokens or tokens[0] != "setp" or len(tokens) < 2 or not tokens[1].startswith("genhexkins."):
             continue
         pin = tokens[1]
+        match = _COORD.fullmatch(pin)
+        option = pin.removeprefix("genhexkins.")
+        if not match and option not in ("spindle-offset", "tool-offset", "screw-lead"):
+            continue  # iteration controls, joint axis vectors...: not part of hexcal's model
         if len(tokens) != 3:
             raise LinuxCNCFormatError(f"{name}: line {number}: expected 'setp {pin} VALUE', got {line!r}")
         value_text = tokens[2]
@@ -378,7 +381,6 @@ def parse_hal(text: str, name: str = "HAL file", ini: IniFile | None = None) -> 
                 raise LinuxCNCFormatError(f"{name}: line {number}: {value_text} is not in {ini.name}")
             value_text = found[0]
         value = _parse_number(value_text, name, number, pin)
-        match = _COORD.fullmatch(pin)
         if match:
             part, joint, axis = match.group(1), int(match.group(2)), "xyz".index(match.group(3))
             if joint > 5:
@@ -388,9 +390,7 @@ def parse_hal(text: str, name: str = "HAL file", ini: IniFile | None = None) -> 
                 warnings.append(f"{name}: {pin} is set on lines {seen[key]} and {number}; line {number} wins")
             coordinates[key], seen[key] = value, number
             continue
-        option = pin.removeprefix("genhexkins.")
-        if option in ("spindle-offset", "tool-offset", "screw-lead"):
-            options[option] = value
+        options[option] = value
     return HalSettings(coordinates, options, warnings)
 
 
@@ -515,14 +515,16 @@ def import_linuxcnc(
                 f"{ini_name}: line {line}: [TRAJ] HOME has {len(home_words)} values, not 6: ignored"
             )
             home_words = None
+    home_source = "[TRAJ] HOME"
     if home_words is None and home_pose is not None:
         home_words = [float(v) for v in np.asarray(home_pose, dtype=float).ravel()]
         if len(home_words) != 6:
             raise ValueError(f"home pose must have 6 values X Y Z A B C, got {len(home_words)}")
-    default_home = home_words is None
-    if default_home:
+        home_source = "the given home pose"
+    if home_words is None:
         height = float(np.mean(np.hypot(base[:, 0], base[:, 1])))
         home_words = [0.0, 0.0, height, 0.0, 0.0, 0.0]
+        home_source = "the default home pose"
 
     # per-joint values
     l0 = np.full(6, np.nan)
@@ -556,16 +558,12 @@ def import_linuxcnc(
     if no_offset.size:
         at_home = inverse_kinematics(geometry_mm, home)
         l0[no_offset] = at_home[no_offset] / scale
-        where = "--home" if (home_pose is not None and ini_text is None) else "[TRAJ] HOME"
         pose_text = " ".join(f"{v:g}" for v in home_words)
-        what = (
-            "no INI file"
-            if ini is None
-            else "no [JOINT_N] HOME_OFFSET for joint(s) " + ", ".join(str(n) for n in no_offset)
-        )
-        source = (
-            f"the default home pose X Y Z A B C = {pose_text}" if default_home else f"{where} {pose_text}"
-        )
+        if ini is None:
+            what = "no INI file"
+        else:
+            what = "no [JOINT_N] HOME_OFFSET for joint(s) " + ", ".join(str(n) for n in no_offset)
+        source = f"{home_source} X Y Z A B C = {pose_text}"
         warnings.append(f"{what}: initial leg lengths l0 are the strut lengths at {source}")
     l0 = l0 * scale
 
@@ -616,13 +614,3 @@ def import_linuxcnc(
         name=name,
     )
     return geometry, warnings
-
-
-def describe_import(geometry: Geometry) -> dict[str, Any]:
-    """A short summary of an imported geometry (for the command's output)."""
-    return {
-        "name": geometry.name,
-        "l0_mm": geometry.initial_leg_lengths.tolist(),
-        "gains": geometry.leg_gains.tolist(),
-        "home_pose": None if geometry.home_pose is None else geometry.home_pose.tolist(),
-    }
