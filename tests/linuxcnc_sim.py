@@ -143,8 +143,8 @@ def _config(joints_ini: dict[str, str], first_hal: str, workdir: Path) -> str:
                 f"""\
                 [JOINT_{n}]
                 TYPE = LINEAR
-                MAX_VELOCITY = 20000
-                MAX_ACCELERATION = 200000
+                MAX_VELOCITY = 100000
+                MAX_ACCELERATION = 5000000
                 MIN_LIMIT = 0
                 MAX_LIMIT = 5000
                 FERROR = 1000
@@ -163,8 +163,8 @@ def _config(joints_ini: dict[str, str], first_hal: str, workdir: Path) -> str:
                 [AXIS_{axis}]
                 MIN_LIMIT = -5000
                 MAX_LIMIT = 5000
-                MAX_VELOCITY = 20000
-                MAX_ACCELERATION = 200000
+                MAX_VELOCITY = 100000
+                MAX_ACCELERATION = 5000000
                 """
             )
         )
@@ -201,12 +201,12 @@ def _config(joints_ini: dict[str, str], first_hal: str, workdir: Path) -> str:
             LINEAR_UNITS = mm
             ANGULAR_UNITS = degree
             HOME = {joints_ini["TRAJ_HOME"]}
-            DEFAULT_LINEAR_VELOCITY = 10000
-            MAX_LINEAR_VELOCITY = 20000
-            DEFAULT_LINEAR_ACCELERATION = 100000
-            MAX_LINEAR_ACCELERATION = 200000
-            DEFAULT_ANGULAR_VELOCITY = 10000
-            MAX_ANGULAR_VELOCITY = 20000
+            DEFAULT_LINEAR_VELOCITY = 100000
+            MAX_LINEAR_VELOCITY = 100000
+            DEFAULT_LINEAR_ACCELERATION = 5000000
+            MAX_LINEAR_ACCELERATION = 5000000
+            DEFAULT_ANGULAR_VELOCITY = 100000
+            MAX_ANGULAR_VELOCITY = 100000
 
             [EMCIO]
             EMCIO = io

@@ -137,6 +137,14 @@ def test_joints_equal_hexcals_inverse_kinematics(scenario, which):
     assert error < JOINT_TOLERANCE, f"max |LinuxCNC joint - hexcal IK| = {error:.3g} mm"
 
 
+def test_gcode_angles_are_the_xyz_sequence(scenario):
+    """The same angles read as hexcal's default intrinsic XYZ give other struts: mm apart."""
+    intrinsic = scenario["calibrated"].replace(euler="XYZ")
+    other = inverse_kinematics(intrinsic, scenario["targets"])
+    off = np.max(np.abs(scenario["joints"]["calibrated"] - other))
+    assert off > 1.0, f"xyz and XYZ differ by only {off:.3g} mm at these targets"
+
+
 def test_calibrated_export_brings_the_real_machine_to_its_targets(scenario):
     s = scenario
     reached = _reached(s["true"], s["calibrated"], s["joints"]["calibrated"], s["targets"])
