@@ -26,7 +26,6 @@ import numpy as np
 import pytest
 
 import linuxcnc_sim
-from conftest import simulate_measurements
 from hexcal.geometry import select_parameters
 from hexcal.kinematics import (
     forward_kinematics,
@@ -47,6 +46,7 @@ from hexcal.linuxcnc import (
 )
 from hexcal.measurement import NoiseModel
 from hexcal.presets import preset
+from hexcal.simulation import simulate_measurements
 
 #: LinuxCNC's joints must equal hexcal's inverse kinematics to this, mm (the issue's 1 µm;
 #: both evaluate |o + R s - u| in double precision, so they agree to ~1e-13 mm).
