@@ -17,6 +17,7 @@ import contextlib
 import datetime
 import hashlib
 import os
+import secrets
 import sys
 import tempfile
 from pathlib import Path
@@ -95,8 +96,8 @@ def write_all_or_nothing(folder: Path, files: dict[str, str]) -> None:
         for name in files:
             target = folder / name
             if target.exists():
-                backup = tempfile.mktemp(prefix=f".{name}.", suffix=".old", dir=folder)
-                os.link(target, backup)
+                backup = str(folder / f".{name}.{os.getpid()}.{secrets.token_hex(6)}.old")
+                os.link(target, backup)  # fails, rather than overwrites, if the name exists
                 backups[name] = backup
         for name, tmp in temps.items():
             os.replace(tmp, folder / name)
