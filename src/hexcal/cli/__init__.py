@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from hexcal.cli.linuxcnc import register as register_linuxcnc
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
 from hexcal.core.noise import NoiseModel
@@ -594,6 +595,8 @@ def build_parser() -> argparse.ArgumentParser:
     from hexcal.cli.plan import register
 
     register(sub, geometry_help)
+
+    register_linuxcnc(sub, geometry_help)
 
     p = sub.add_parser("simulate", help="Monte Carlo study of calibration campaigns")
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {geometry_help}")

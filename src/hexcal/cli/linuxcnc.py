@@ -1,0 +1,197 @@
+"""LinuxCNC subcommands of ``hexcal``: ``export linuxcnc`` and ``import linuxcnc``.
+
+- ``hexcal export linuxcnc --geometry G --out DIR`` writes ``DIR/hexcal-kins.hal`` and
+  ``DIR/hexcal-joints.ini`` (both or neither);
+- ``hexcal import linuxcnc --hal FILE [--ini FILE] --out G.yaml`` writes a geometry of
+  the machine a LinuxCNC configuration describes.
+
+The module imports the standard library only; numpy and hexcal's modules are imported
+inside the commands, so that ``hexcal --help`` stays fast. Known failures raise
+``ValueError`` subclasses, which ``hexcal.cli.main`` prints as one line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import datetime
+import hashlib
+import os
+import secrets
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+
+class LinuxCNCCommandError(ValueError):
+    """A failure of a LinuxCNC subcommand, reported as one line."""
+
+
+def register(sub: Any, geometry_help: str) -> None:
+    """Add ``export`` and ``import`` to the ``hexcal`` parser's subparsers."""
+    p = sub.add_parser("export", help="write a geometry in a controller's format (LinuxCNC genhexkins)")
+    p.add_argument("target", choices=("linuxcnc",), help="controller format")
+    p.add_argument("--geometry", required=True, help=f"(calibrated) {geometry_help}")
+    p.add_argument(
+        "--out", required=True, help="folder for hexcal-kins.hal and hexcal-joints.ini (created if missing)"
+    )
+    p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser("import", help="a geometry from a controller's configuration (LinuxCNC genhexkins)")
+    p.add_argument("target", choices=("linuxcnc",), help="controller format")
+    p.add_argument("--hal", required=True, help="HAL file with the 'setp genhexkins...' lines")
+    p.add_argument("--ini", help="the machine's INI file (units, HOME_OFFSET, limits, [TRAJ] HOME)")
+    p.add_argument(
+        "--home",
+        metavar="X,Y,Z,A,B,C",
+        help="home pose (machine units, degrees) when the INI has no [TRAJ] HOME; "
+        "l0 is the strut lengths there for joints without HOME_OFFSET",
+    )
+    p.add_argument("--name", help="geometry name (default: the INI's [EMC] MACHINE)")
+    p.add_argument("--out", required=True, help="geometry YAML file to write")
+    p.set_defaults(func=cmd_import)
+
+
+def _warn(message: str) -> None:
+    print(f"hexcal: warning: {message}", file=sys.stderr)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _read_text(path: str, what: str) -> str:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return fh.read()
+    except FileNotFoundError:
+        raise LinuxCNCCommandError(f"{path}: no such {what} file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise LinuxCNCCommandError(f"{path}: cannot read: {exc}") from None
+
+
+def write_all_or_nothing(folder: Path, files: dict[str, str]) -> None:
+    """Write ``files`` (name -> text) into ``folder``: all of them, or none changed.
+
+    Each text goes to a temporary file in ``folder`` first; then all are renamed into
+    place. Should a rename fail, the files already replaced get their old contents back
+    (kept as hard links) and the new ones are removed.
+    """
+    temps: dict[str, str] = {}
+    backups: dict[str, str] = {}
+    done: list[str] = []
+    try:
+        for name, text in files.items():
+            fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=".tmp", dir=folder)
+            temps[name] = tmp
+            with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+                fh.write(text)
+            mask = os.umask(0)
+            os.umask(mask)
+            os.chmod(tmp, 0o666 & ~mask)
+        for name in files:
+            target = folder / name
+            if target.exists():
+                backup = str(folder / f".{name}.{os.getpid()}.{secrets.token_hex(6)}.old")
+                os.link(target, backup)  # fails, rather than overwrites, if the name exists
+                backups[name] = backup
+        for name, tmp in temps.items():
+            os.replace(tmp, folder / name)
+            done.append(name)
+    except BaseException:
+        for name in done:  # undo the renames already made
+            with contextlib.suppress(OSError):
+                if name in backups:
+                    os.replace(backups.pop(name), folder / name)
+                else:
+                    os.unlink(folder / name)
+        for path in (*temps.values(), *backups.values()):
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+        raise
+    for backup in backups.values():
+        with contextlib.suppress(OSError):
+            os.unlink(backup)
+
+
+def cmd_export(args: argparse.Namespace) -> None:
+    from hexcal.core.presets import PRESETS
+    from hexcal.io import load_geometry
+    from hexcal.io.linuxcnc import euler_warning, export_linuxcnc
+
+    geometry = load_geometry(args.geometry)
+    if args.geometry in PRESETS:
+        source, sha256, date = f"built-in preset {args.geometry}", None, None
+    else:
+        path = Path(args.geometry)
+        data = path.read_bytes()
+        sha256 = hashlib.sha256(data).hexdigest()
+        mtime = datetime.datetime.fromtimestamp(path.stat().st_mtime, tz=datetime.UTC)
+        source, date = str(path), mtime.strftime("%Y-%m-%dT%H:%M:%SZ")
+    files = export_linuxcnc(geometry, source=source, source_sha256=sha256, source_date=date)
+    folder = Path(args.out)
+    if folder.exists() and not folder.is_dir():
+        raise LinuxCNCCommandError(f"{folder}: is a file, not a folder")
+    if not folder.exists():
+        parent = folder.parent if str(folder.parent) else Path(".")
+        if not parent.is_dir():
+            raise LinuxCNCCommandError(f"{folder}: the folder {parent} does not exist")
+    if args.geometry not in PRESETS:
+        for name in files:
+            if _same_file(folder / name, Path(args.geometry)):
+                raise LinuxCNCCommandError(f"{folder / name}: is the input geometry; choose another --out")
+    warning = euler_warning(geometry)
+    created = not folder.exists()
+    folder.mkdir(exist_ok=True)
+    try:
+        write_all_or_nothing(folder, files)
+    except BaseException:
+        if created:
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        raise
+    if warning:
+        _warn(warning)
+    print(f"wrote {', '.join(str(folder / name) for name in files)}")
+    print("paste: [HAL] HALFILE = hexcal-kins.hal; the [TRAJ], [JOINT_N], [AXIS_*] keys of hexcal-joints.ini")
+
+
+def _parse_home(text: str) -> list[float]:
+    parts = [p.strip() for p in text.replace(" ", ",").split(",") if p.strip()]
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise LinuxCNCCommandError(f"--home: {text!r} is not six numbers X,Y,Z,A,B,C") from None
+    if len(values) != 6 or not all(abs(v) < float("inf") for v in values):
+        raise LinuxCNCCommandError(f"--home: {text!r} is not six finite numbers X,Y,Z,A,B,C")
+    return values
+
+
+def cmd_import(args: argparse.Namespace) -> None:
+    from hexcal.io import save_geometry
+    from hexcal.io.linuxcnc_import import import_linuxcnc
+
+    out = Path(args.out)
+    for given in (args.hal, args.ini):
+        if given and (_same_file(out, Path(given)) or out.resolve() == Path(given).resolve()):
+            raise LinuxCNCCommandError(f"{out}: is an input file; choose another --out")
+    folder = out.parent if str(out.parent) else Path(".")
+    if not folder.is_dir():
+        raise LinuxCNCCommandError(f"{out}: the folder {folder} does not exist")
+    hal_text = _read_text(args.hal, "HAL")
+    ini_text = _read_text(args.ini, "INI") if args.ini else None
+    home = _parse_home(args.home) if args.home else None
+    geometry, warnings = import_linuxcnc(
+        hal_text, ini_text, hal_name=args.hal, ini_name=args.ini or "INI file", home_pose=home, name=args.name
+    )
+    save_geometry(geometry, out)
+    for warning in warnings:
+        _warn(warning)
+    print(
+        f"wrote the geometry of {args.hal}{' and ' + args.ini if args.ini else ''} to {out} "
+        "(euler xyz: hexcal's a b c are G-code A B C in radians)"
+    )

@@ -1,0 +1,260 @@
+"""LinuxCNC ``genhexkins``: export a geometry to HAL/INI text and import one from them.
+
+LinuxCNC drives a hexapod with its ``genhexkins`` kinematics module. Its parameters are
+HAL pins ``genhexkins.base.N.x|y|z`` (base joint ``N`` in the base = world frame) and
+``genhexkins.platform.N.x|y|z`` (platform joint ``N`` in the platform frame); joint ``N``
+of the machine is the length of strut ``N``, and the pose words ``A B C`` are roll,
+pitch and yaw in degrees, ``R = Rz(C) Ry(B) Rx(A)``: hexcal's Euler sequence ``xyz``
+(extrinsic). The conventions, side by side:
+
+==========================  =====================================  =========================
+quantity                    hexcal                                 LinuxCNC genhexkins
+==========================  =====================================  =========================
+leg / strut ``i``           leg ``i`` (1..6), ``u_i``, ``s_i``     joint ``N = i - 1``
+base joint                  ``base_joints[i-1]``, mm               ``genhexkins.base.N.*``
+platform joint              ``platform_joints[i-1]``, mm           ``genhexkins.platform.N.*``
+position                    pose ``x, y, z``, mm                   ``X Y Z`` ([TRAJ] mm)
+orientation                 ``a, b, c`` rad, sequence ``xyz``      ``A B C``, degrees
+strut length                ``l0_i + g_i dl_i``                    joint position
+length at reading 0         ``l0_i``                               ``[JOINT_N] HOME_OFFSET``
+leg gain                    ``g_i``                                scale / ``g_i``
+==========================  =====================================  =========================
+
+Everything here is text in, text out: :func:`export_linuxcnc` returns the two files'
+contents and :func:`hexcal.io.linuxcnc_import.import_linuxcnc` parses given texts. Parsing errors raise
+:class:`LinuxCNCFormatError` (a ``ValueError``) with one line naming the file and line.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hexcal.core.geometry import Geometry
+from hexcal.errors import InputError
+
+#: File names written by :func:`export_linuxcnc`.
+HAL_FILE = "hexcal-kins.hal"
+INI_FILE = "hexcal-joints.ini"
+
+#: LinuxCNC's pose angles are roll, pitch, yaw about the fixed X, Y, Z axes: scipy ``xyz``.
+LINUXCNC_EULER = "xyz"
+
+#: Defaults of LinuxCNC's ``genhexkins.h`` (the machine's linear units; inches in the
+#: hexapod-sim sample configuration). Rows are joints 0..5, columns x, y, z.
+GENHEXKINS_DEFAULT_BASE = np.array(
+    [
+        [-22.950, 13.250, 0.0],
+        [22.950, 13.250, 0.0],
+        [22.950, 13.250, 0.0],
+        [0.000, -26.500, 0.0],
+        [0.000, -26.500, 0.0],
+        [-22.950, 13.250, 0.0],
+    ]
+)
+GENHEXKINS_DEFAULT_PLATFORM = np.array(
+    [
+        [-1.000, 11.500, 0.0],
+        [1.000, 11.500, 0.0],
+        [10.459, -4.884, 0.0],
+        [9.459, -6.616, 0.0],
+        [-9.459, -6.616, 0.0],
+        [-10.459, -4.884, 0.0],
+    ]
+)
+
+
+class LinuxCNCFormatError(InputError):
+    """A HAL or INI file cannot be read; the message names the file and the line."""
+
+
+# -- export -------------------------------------------------------------------------
+
+
+def _num(value: float) -> str:
+    """Shortest text that reads back (with C's strtod too) as exactly ``value``."""
+    return repr(float(value))
+
+
+def _xyz_degrees(angles: NDArray[np.float64], euler: str) -> NDArray[np.float64]:
+    """LinuxCNC's ``A B C`` (degrees) of hexcal angles in sequence ``euler``."""
+    if euler == LINUXCNC_EULER:
+        return np.rad2deg(angles)
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_euler(euler, angles).as_euler(LINUXCNC_EULER, degrees=True)
+
+
+def _header(geometry: Geometry, title: str, source: str, sha256: str | None, date: str | None) -> list[str]:
+    lines = [f"# {title} -- written by hexcal's `hexcal export linuxcnc`"]
+    name = f" (name {geometry.name})" if geometry.name else ""
+    lines.append(f"# source geometry: {source}{name}")
+    if sha256:
+        lines.append(f"# sha256 of the geometry file: {sha256}")
+    cal = geometry.calibration
+    if cal:
+        parts = [f"method {cal.get('method', 'unknown')}"]
+        if "poses" in cal:
+            parts.append(f"{cal['poses']} poses")
+        if cal.get("data"):
+            parts.append(f"data {cal['data']}")
+        cal_date = cal.get("date") or (f"{date} (geometry file modified)" if date else "unknown")
+        parts.append(f"date {cal_date}")
+        lines.append("# calibration: " + ", ".join(parts))
+    else:
+        lines.append("# calibration: none (this geometry was not identified by hexcal)")
+    lines.append("# units: mm; the machine's INI must have [TRAJ] LINEAR_UNITS = mm, ANGULAR_UNITS = degree")
+    lines.append(
+        "# angles: LinuxCNC's A, B, C are hexcal's Euler sequence 'xyz' in degrees (extrinsic roll A"
+    )
+    lines.append("#   about X, pitch B about Y, yaw C about Z, all fixed axes: R = Rz(C) Ry(B) Rx(A))")
+    if geometry.euler != LINUXCNC_EULER:
+        lines.append(
+            f"#   NOTE: this geometry's poses use the sequence {geometry.euler!r}: its angles are not"
+        )
+        lines.append("#   G-code A B C; the joint coordinates below do not depend on the sequence")
+    lines.append("# joints: LinuxCNC joint N is hexcal's leg N+1 (u_{N+1}, s_{N+1}, l0_{N+1}, g_{N+1})")
+    return lines
+
+
+def export_linuxcnc(
+    geometry: Geometry,
+    source: str = "(in memory)",
+    source_sha256: str | None = None,
+    source_date: str | None = None,
+) -> dict[str, str]:
+    """The ``genhexkins`` HAL file and the per-joint INI values of a geometry.
+
+    Parameters
+    ----------
+    geometry : Geometry
+    source : str
+        Where the geometry came from (a file path or a preset name), for the header.
+    source_sha256 : str, optional
+        SHA-256 of the geometry file, for the header.
+    source_date : str, optional
+        The geometry file's modification time, given as the calibration date when the
+        geometry's ``calibration`` has no ``date``.
+
+    Returns
+    -------
+    dict of str to str
+        ``{"hexcal-kins.hal": ..., "hexcal-joints.ini": ...}``.
+
+    Notes
+    -----
+    Coordinates are written with Python's shortest round-trip representation, which
+    C's ``strtod`` (used by ``halcmd``) reads back to the same double. The INI holds, per
+    joint, ``HOME_OFFSET = l0`` (strut length at reading 0, i.e. at the home switch),
+    ``HOME`` (strut length at the home pose), ``MIN_LIMIT``/``MAX_LIMIT`` (leg length
+    limits) and ``HEXCAL_LEG_GAIN = g`` (the joint's position scale, counts per mm, is
+    to be divided by ``g``); ``[TRAJ] HOME`` is the home pose and ``[AXIS_*]`` limits
+    the workspace box, in LinuxCNC's ``X Y Z A B C``.
+    """
+    hal = _header(geometry, HAL_FILE, source, source_sha256, source_date)
+    hal += [
+        "# use: in the machine's INI, [HAL] HALFILE = hexcal-kins.hal after the file that loads",
+        "#   genhexkins ([KINS] KINEMATICS = genhexkins), and delete the machine's own",
+        "#   'setp genhexkins.base.*' and 'setp genhexkins.platform.*' lines; leave",
+        "#   genhexkins.spindle-offset at 0 (hexcal's platform frame is the measured one)",
+        "",
+    ]
+    for part, joints in (("base", geometry.base_joints), ("platform", geometry.platform_joints)):
+        frame = "base (world) frame" if part == "base" else "platform frame"
+        hal.append(f"# {part} joints, {frame}, mm")
+        for n in range(6):
+            for k, axis in enumerate("xyz"):
+                hal.append(f"setp genhexkins.{part}.{n}.{axis} {_num(joints[n, k])}")
+        hal.append("")
+
+    ini = _header(geometry, INI_FILE, source, source_sha256, source_date)
+    ini += [
+        "# Copy each key below into the section of the same name in the machine's INI file,",
+        "# replacing the key there. Strut model: strut length (mm) = l0 + g * dl, where dl is the",
+        "# strut reading the calibration was measured with (mm from the home switch at the old",
+        "# scale: for a geometry from `hexcal import linuxcnc`, joint position - old HOME_OFFSET).",
+        "# LinuxCNC ignores the HEXCAL_* keys; `hexcal import linuxcnc` reads them back.",
+        "",
+        "[TRAJ]",
+        "LINEAR_UNITS = mm",
+        "ANGULAR_UNITS = degree",
+    ]
+    home_lengths = None
+    if geometry.home_pose is not None:
+        from hexcal.core.kinematics import inverse_kinematics
+
+        home = geometry.home_pose
+        abc = _xyz_degrees(home[3:], geometry.euler)
+        words = " ".join(_num(v) for v in (*home[:3], *abc))
+        ini += [
+            "# home pose X Y Z (mm) A B C (degrees): where the forward kinematics starts after homing",
+            f"HOME = {words}",
+        ]
+        home_lengths = inverse_kinematics(geometry, home)
+    ini.append("")
+    for n in range(6):
+        ini += [
+            f"[JOINT_{n}]",
+            f"# hexcal leg {n + 1}. HOME_OFFSET: strut length at reading dl = 0 (l0), mm; the joint",
+            "# position the home switch sets",
+            f"HOME_OFFSET = {_num(geometry.initial_leg_lengths[n])}",
+        ]
+        if home_lengths is not None:
+            ini += [
+                "# HOME: strut length at the home pose, mm; where the joint goes after homing",
+                f"HOME = {_num(home_lengths[n])}",
+            ]
+        if geometry.leg_length_limits is not None:
+            lo, hi = geometry.leg_length_limits
+            ini += [
+                "# strut length limits, mm",
+                f"MIN_LIMIT = {_num(lo)}",
+                f"MAX_LIMIT = {_num(hi)}",
+            ]
+        ini += [
+            "# leg gain g, mm of strut per mm of reading. Scale correction: divide this joint's",
+            "# position scale (counts per mm: stepgen/encoder SCALE, INPUT_SCALE, OUTPUT_SCALE) by g",
+            f"HEXCAL_LEG_GAIN = {_num(geometry.leg_gains[n])}",
+            "",
+        ]
+    if geometry.workspace is not None:
+        box = geometry.workspace
+        for k, axis in enumerate("XYZ"):
+            ini += [
+                f"[AXIS_{axis}]",
+                "# workspace box, mm",
+                f"MIN_LIMIT = {_num(box[k, 0])}",
+                f"MAX_LIMIT = {_num(box[k, 1])}",
+                "",
+            ]
+        if geometry.euler == LINUXCNC_EULER:
+            for k, axis in enumerate("ABC"):
+                lo, hi = np.rad2deg(box[k + 3])
+                ini += [
+                    f"[AXIS_{axis}]",
+                    "# workspace box, degrees",
+                    f"MIN_LIMIT = {_num(lo)}",
+                    f"MAX_LIMIT = {_num(hi)}",
+                    "",
+                ]
+        else:
+            ini += [
+                "# [AXIS_A], [AXIS_B], [AXIS_C]: not written; the workspace's angle ranges are in the",
+                f"# sequence {geometry.euler!r}, which is not a box in LinuxCNC's A B C",
+                "",
+            ]
+    return {HAL_FILE: "\n".join(hal).rstrip("\n") + "\n", INI_FILE: "\n".join(ini).rstrip("\n") + "\n"}
+
+
+def euler_warning(geometry: Geometry) -> str | None:
+    """The one-line warning for a geometry whose angles are not LinuxCNC's, or None."""
+    if geometry.euler == LINUXCNC_EULER:
+        return None
+    return (
+        f"the geometry's angles use the Euler sequence {geometry.euler!r}, LinuxCNC's A B C are "
+        f"'xyz' (roll-pitch-yaw, degrees): the joint coordinates are exported unchanged, but G-code "
+        f"angles mean 'xyz' angles"
+    )
+
+
+# -- reading HAL and INI files --------------------------------------------------------
