@@ -1,0 +1,231 @@
+"""Self-contained HTML reports: one file that opens from disk with no network.
+
+Everything is inline: the styles, a few lines of script (sortable tables), and the figures
+as SVG text (rendered by :mod:`hexcal.report.figures`). Pages are built from the same
+``to_dict()`` dictionaries the text and JSON reports use, so the verdict, the numbers and
+the parameter table are the same in every format. Readable on a laptop screen and
+printable (a print style sheet drops the interactive parts).
+
+>>> page = html_page("Demo", [section("Numbers", key_value_table({"poses": 15}))])
+>>> page.startswith("<!DOCTYPE html>") and "poses" in page and "http" not in page
+True
+"""
+
+from __future__ import annotations
+
+import html
+import math
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+_STYLE = """
+:root { --fg: #1d232a; --muted: #5b6570; --line: #d7dce1; --pass: #1a7f37; --warn: #9a6700;
+        --fail: #cf222e; --bg-alt: #f6f8fa; }
+* { box-sizing: border-box; }
+body { font: 15px/1.45 system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; color: var(--fg);
+       margin: 0 auto; max-width: 1180px; padding: 1.2rem 1.5rem 3rem; }
+h1 { font-size: 1.55rem; margin: 0 0 .2rem; }
+h2 { font-size: 1.15rem; margin: 1.8rem 0 .6rem; border-bottom: 1px solid var(--line);
+     padding-bottom: .2rem; }
+.subtitle { color: var(--muted); margin: 0 0 1rem; }
+.verdict { display: flex; gap: 1rem; align-items: baseline; padding: .8rem 1rem; border-radius: 8px;
+           border: 2px solid var(--line); margin: .8rem 0 .4rem; }
+.verdict .word { font-size: 1.6rem; font-weight: 700; text-transform: uppercase; letter-spacing: .04em; }
+.verdict.pass { border-color: var(--pass); } .verdict.pass .word { color: var(--pass); }
+.verdict.warn { border-color: var(--warn); } .verdict.warn .word { color: var(--warn); }
+.verdict.fail { border-color: var(--fail); } .verdict.fail .word { color: var(--fail); }
+.reasons { margin: .3rem 0 0 0; padding-left: 1.2rem; }
+.reasons li.fail { color: var(--fail); } .reasons li.warn { color: var(--warn); }
+table { border-collapse: collapse; font-variant-numeric: tabular-nums; margin: .3rem 0 1rem; }
+th, td { padding: .22rem .6rem; border-bottom: 1px solid var(--line); text-align: right; }
+th:first-child, td:first-child { text-align: left; }
+th { background: var(--bg-alt); position: sticky; top: 0; }
+table.sortable th { cursor: pointer; user-select: none; }
+table.sortable th[aria-sort="ascending"]::after { content: " \\25B2"; font-size: .7em; }
+table.sortable th[aria-sort="descending"]::after { content: " \\25BC"; font-size: .7em; }
+.scroll { max-height: 32rem; overflow: auto; border: 1px solid var(--line); border-radius: 6px; }
+.figures { display: grid; grid-template-columns: repeat(auto-fit, minmax(520px, 1fr)); gap: 1rem; }
+figure { margin: 0; border: 1px solid var(--line); border-radius: 6px; padding: .5rem; background: #fff; }
+figure svg { width: 100%; height: auto; display: block; }
+figcaption { color: var(--muted); font-size: .88rem; margin-top: .3rem; }
+code, .mono { font-family: ui-monospace, "SFMono-Regular", Menlo, monospace; font-size: .9em; }
+.muted { color: var(--muted); }
+@media print {
+  body { max-width: none; padding: 0; font-size: 11pt; }
+  .scroll { max-height: none; overflow: visible; border: 0; }
+  .figures { display: block; } figure { break-inside: avoid; margin-bottom: 1rem; }
+  table.sortable th { cursor: auto; } table.sortable th::after { content: "" !important; }
+}
+"""
+
+# Sort a table by a clicked column: numbers by data-value (missing last), text otherwise.
+_SCRIPT = """
+document.querySelectorAll("table.sortable").forEach(function (table) {
+  table.querySelectorAll("th").forEach(function (th, col) {
+    th.addEventListener("click", function () {
+      var asc = th.getAttribute("aria-sort") !== "ascending";
+      table.querySelectorAll("th").forEach(function (h) { h.removeAttribute("aria-sort"); });
+      th.setAttribute("aria-sort", asc ? "ascending" : "descending");
+      var body = table.tBodies[0];
+      var rows = Array.prototype.slice.call(body.rows);
+      rows.sort(function (a, b) {
+        var x = a.cells[col].dataset.value, y = b.cells[col].dataset.value;
+        if (x !== undefined && y !== undefined) {
+          var fx = parseFloat(x), fy = parseFloat(y);
+          if (isNaN(fx)) return 1; if (isNaN(fy)) return -1;
+          return asc ? fx - fy : fy - fx;
+        }
+        x = a.cells[col].textContent; y = b.cells[col].textContent;
+        return asc ? x.localeCompare(y) : y.localeCompare(x);
+      });
+      rows.forEach(function (r) { body.appendChild(r); });
+    });
+  });
+});
+"""
+
+
+def esc(value: Any) -> str:
+    """HTML-escaped text of a value."""
+    return html.escape(str(value), quote=True)
+
+
+def number(value: Any, digits: int = 6) -> str:
+    """A number for a table cell (``-`` for missing or non-finite values)."""
+    if value is None:
+        return "-"
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return esc(value)
+    if not math.isfinite(v):
+        return "-"
+    return f"{v:.{digits}g}"
+
+
+def html_page(title: str, sections: Sequence[str], subtitle: str = "") -> str:
+    """A complete, self-contained HTML document."""
+    sub = f'<p class="subtitle">{esc(subtitle)}</p>' if subtitle else ""
+    return (
+        '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+        f"<title>{esc(title)}</title>\n<style>{_STYLE}</style>\n</head>\n<body>\n"
+        f"<h1>{esc(title)}</h1>\n{sub}\n"
+        + "\n".join(sections)
+        + f"\n<script>{_SCRIPT}</script>\n</body>\n</html>\n"
+    )
+
+
+def section(title: str, body: str, anchor: str = "") -> str:
+    """A titled section of a page."""
+    ident = f' id="{esc(anchor)}"' if anchor else ""
+    return f"<section{ident}>\n<h2>{esc(title)}</h2>\n{body}\n</section>"
+
+
+def verdict_block(verdict: str | None, reasons: Iterable[Mapping[str, Any] | str] = ()) -> str:
+    """The verdict in one line (``pass``, ``warn``, ``fail``) with its reasons."""
+    word = (verdict or "none").lower()
+    items = []
+    for reason in reasons:
+        if isinstance(reason, Mapping):
+            severity = str(reason.get("severity", "info")).lower()
+            text = reason.get("message", "")
+        else:
+            severity, text = "info", reason
+        items.append(f'<li class="{esc(severity)}">{esc(text)}</li>')
+    listing = f'<ul class="reasons">{"".join(items)}</ul>' if items else ""
+    return (
+        f'<div class="verdict {esc(word)}" data-verdict="{esc(word)}"><span class="word">{esc(word)}</span>'
+        f"<div>{listing or '<span class=muted>no reasons given</span>'}</div></div>"
+    )
+
+
+def key_value_table(rows: Mapping[str, Any], digits: int = 6) -> str:
+    """A two-column table of labelled values."""
+    cells = "".join(
+        f"<tr><td>{esc(k)}</td><td>{number(v, digits) if _numeric(v) else esc(v)}</td></tr>"
+        for k, v in rows.items()
+    )
+    return f"<table><tbody>{cells}</tbody></table>"
+
+
+def _numeric(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def data_table(
+    columns: Sequence[str],
+    rows: Sequence[Sequence[Any]],
+    sortable: bool = True,
+    digits: int = 6,
+    table_id: str = "",
+    scroll: bool = False,
+) -> str:
+    """A table of rows; numeric cells carry their value for sorting."""
+    head = "".join(f'<th scope="col">{esc(c)}</th>' for c in columns)
+    body = []
+    for row in rows:
+        cells = []
+        for value in row:
+            if _numeric(value):
+                v = float(value)
+                data = repr(v) if math.isfinite(v) else "NaN"
+                cells.append(f'<td data-value="{data}">{number(v, digits)}</td>')
+            else:
+                cells.append(f"<td>{esc(value)}</td>")
+        body.append(f"<tr>{''.join(cells)}</tr>")
+    ident = f' id="{esc(table_id)}"' if table_id else ""
+    kind = ' class="sortable"' if sortable else ""
+    table = f"<table{ident}{kind}><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+    return f'<div class="scroll">{table}</div>' if scroll else table
+
+
+def figure_grid(figures: Mapping[str, str], captions: Mapping[str, str] | None = None) -> str:
+    """Inline SVG figures side by side (each ``name -> svg text``)."""
+    captions = captions or {}
+    items = []
+    for k, (name, svg) in enumerate(figures.items()):
+        cap = captions.get(name, "")
+        caption = f"<figcaption>{esc(cap)}</figcaption>" if cap else ""
+        body = _unique_ids(_strip_xml_header(svg), f"f{k}-")
+        items.append(f'<figure data-figure="{esc(name)}">{body}{caption}</figure>')
+    return f'<div class="figures">{"".join(items)}</div>'
+
+
+def _unique_ids(svg: str, prefix: str) -> str:
+    """Prefix every id of an inline SVG and the references to them: several SVGs on one page
+    share one id space, and a clip path defined twice would clip the second figure away."""
+    ids = set(re.findall(r'\bid="([^"]+)"', svg))
+    if not ids:
+        return svg
+    pattern = re.compile(
+        r'(\bid="|#)(' + "|".join(re.escape(i) for i in sorted(ids, key=len, reverse=True)) + r")\b"
+    )
+    return pattern.sub(lambda m: f"{m.group(1)}{prefix}{m.group(2)}", svg)
+
+
+def _strip_xml_header(svg: str) -> str:
+    start = svg.find("<svg")
+    return svg[start:] if start >= 0 else svg
+
+
+def inputs_table(inputs: Mapping[str, Any]) -> str:
+    """The inputs that make a report traceable: files with their SHA-256, options, version, date."""
+    parts = []
+    files = inputs.get("files", [])
+    if files:
+        rows = [(f.get("role", ""), f.get("path", ""), f.get("sha256", "")) for f in files]
+        parts.append(data_table(("input", "file", "SHA-256"), rows, sortable=False))
+    rest = {k: v for k, v in inputs.items() if k != "files"}
+    if rest:
+        parts.append(key_value_table({k: _plain_text(v) for k, v in rest.items()}))
+    return "\n".join(parts)
+
+
+def _plain_text(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return ", ".join(f"{k}={_plain_text(v)}" for k, v in value.items())
+    if isinstance(value, (list, tuple)):
+        return " ".join(str(v) for v in value)
+    return value
