@@ -218,21 +218,31 @@ def _angle_key(mapping: dict[str, Any], axis: str, where: str) -> tuple[Any, boo
     raise GeometryError(f"{where}: missing key '{axis}' (rad) or '{axis}_deg'")
 
 
-def _pose_from_mapping(mapping: Any, where: str) -> NDArray[np.float64]:
+_POSE_KEYS = {"x", "y", "z", "a", "b", "c", "a_deg", "b_deg", "c_deg"}
+
+
+def _coordinates(mapping: Any, where: str, expected: str) -> list[tuple[str, Any, bool]]:
+    """``(axis, value, in_degrees)`` of the six pose coordinates of a YAML mapping."""
     if not isinstance(mapping, dict):
-        raise GeometryError(f"{where} must be a mapping with keys x, y, z, a|a_deg, b|b_deg, c|c_deg")
-    allowed = {"x", "y", "z", "a", "b", "c", "a_deg", "b_deg", "c_deg"}
-    extra = sorted(set(mapping) - allowed)
+        raise GeometryError(f"{where} must be a mapping {expected}")
+    extra = sorted(set(mapping) - _POSE_KEYS, key=str)
     if extra:
         raise GeometryError(f"{where}: unknown key(s) {', '.join(map(str, extra))}")
-    pose = np.empty(6)
-    for k, axis in enumerate(POSE_NAMES):
+    out = []
+    for axis in POSE_NAMES:
         if axis in "xyz":
             if axis not in mapping:
                 raise GeometryError(f"{where}: missing key '{axis}'")
-            value, deg = mapping[axis], False
+            out.append((axis, mapping[axis], False))
         else:
-            value, deg = _angle_key(mapping, axis, where)
+            out.append((axis, *_angle_key(mapping, axis, where)))
+    return out
+
+
+def _pose_from_mapping(mapping: Any, where: str) -> NDArray[np.float64]:
+    pose = np.empty(6)
+    expected = "with keys x, y, z, a|a_deg, b|b_deg, c|c_deg"
+    for k, (axis, value, deg) in enumerate(_coordinates(mapping, where, expected)):
         try:
             v = float(value)
         except (TypeError, ValueError):
@@ -243,20 +253,9 @@ def _pose_from_mapping(mapping: Any, where: str) -> NDArray[np.float64]:
 
 def _box_from_mapping(mapping: Any) -> NDArray[np.float64]:
     where = "workspace"
-    if not isinstance(mapping, dict):
-        raise GeometryError("workspace must be a mapping of pose coordinates to [low, high]")
-    allowed = {"x", "y", "z", "a", "b", "c", "a_deg", "b_deg", "c_deg"}
-    extra = sorted(set(mapping) - allowed)
-    if extra:
-        raise GeometryError(f"{where}: unknown key(s) {', '.join(map(str, extra))}")
     box = np.empty((6, 2))
-    for k, axis in enumerate(POSE_NAMES):
-        if axis in "xyz":
-            if axis not in mapping:
-                raise GeometryError(f"{where}: missing key '{axis}'")
-            value, deg = mapping[axis], False
-        else:
-            value, deg = _angle_key(mapping, axis, where)
+    coordinates = _coordinates(mapping, where, "of pose coordinates to [low, high]")
+    for k, (axis, value, deg) in enumerate(coordinates):
         try:
             rng = np.array(value, dtype=float)
         except (TypeError, ValueError):
