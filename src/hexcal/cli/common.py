@@ -1,0 +1,206 @@
+"""Helpers shared by the ``hexcal`` subcommands: option parsing and checks, progress lines.
+
+This module imports only the standard library and :mod:`hexcal.errors` at its top, so
+that building the parser (``hexcal --help``) costs no numpy; the helpers that need the
+library import it when they run. Every failure of an option raises :class:`CommandError`,
+which ``hexcal.cli.main`` prints as one line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from hexcal.errors import UsageError
+
+if TYPE_CHECKING:
+    from hexcal.core import Geometry, NoiseModel
+
+#: Names of the built-in geometries (``hexcal.core.PRESETS``), spelled here so that the
+#: parser is built without importing numpy; ``tests/test_cli.py`` checks they agree.
+PRESET_NAMES = ("paper-hmt", "paper-hmt-true")
+
+#: Help of every ``--geometry`` option.
+GEOMETRY_HELP = f"geometry YAML file or preset ({', '.join(PRESET_NAMES)})"
+
+#: Help of ``--euler``.
+EULER_HELP = "Euler sequence of the angles (default: the geometry's)"
+
+#: Help of the planning commands' ``--noise``.
+NOISE_HELP = "noise half-widths (uniform) or sigmas (normal), e.g. leg=0.01,pos=0.025,ang=0.001"
+
+
+class CommandError(UsageError):
+    """A failure of a command's options to report as one line."""
+
+
+def id_list(ids: Sequence[str], most: int = 20) -> str:
+    """``ids`` joined by commas, cut after ``most`` with the total count.
+
+    >>> id_list(["p1", "p2", "p3"], most=2)
+    'p1, p2 ... (3 in all)'
+    """
+    return ", ".join(ids[:most]) + (f" ... ({len(ids)} in all)" if len(ids) > most else "")
+
+
+def load_geometry(spec: str, euler: str | None = None) -> Geometry:
+    """The geometry of a YAML file or preset, with the Euler sequence of ``--euler``."""
+    from hexcal.io import load_geometry as load
+
+    geometry = load(spec)
+    return geometry.replace(euler=euler) if euler else geometry
+
+
+def parse_noise(text: str | None, distribution: str = "uniform") -> NoiseModel:
+    """Parse ``leg=0.01,pos=0.025,ang=0.001`` (any subset; others keep the paper's values).
+
+    >>> parse_noise("leg=0.02").leg
+    0.02
+    """
+    from hexcal.core import NoiseModel
+
+    keys = {"leg": "leg", "pos": "position", "ang": "orientation"}
+    values: dict[str, float] = {}
+    for item in (text or "").split(","):
+        item = item.strip()
+        if not item:
+            continue
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or key not in keys:
+            raise CommandError(f"--noise: cannot read {item!r}; write e.g. leg=0.01,pos=0.025,ang=0.001")
+        try:
+            number = float(value)
+        except ValueError:
+            raise CommandError(f"--noise: {key}={value!r} is not a number") from None
+        if not math.isfinite(number) or number < 0:
+            raise CommandError(f"--noise: {key} must be a finite value >= 0, got {value}")
+        values[keys[key]] = number
+    try:
+        return NoiseModel(distribution=distribution, **values)
+    except ValueError as exc:
+        raise CommandError(f"--noise: {exc}") from None
+
+
+def noise_options(p: argparse.ArgumentParser) -> None:
+    """Add ``--noise``, ``--noise-dist`` and ``--pose-covariance`` to a subcommand."""
+    p.add_argument(
+        "--noise",
+        help="measurement noise: leg=MM,pos=MM,ang=RAD (default the seed paper's "
+        "leg=0.01,pos=0.025,ang=0.001)",
+    )
+    p.add_argument(
+        "--noise-dist",
+        choices=("uniform", "normal"),
+        default="uniform",
+        help="uniform: the values are half-widths a (σ = a/√3); normal: they are σ",
+    )
+    p.add_argument(
+        "--pose-covariance",
+        metavar="FILE",
+        help="full 6x6 pose covariance (mm², mm·rad, rad²; 6 rows of 6 numbers), replacing pos and ang",
+    )
+
+
+def noise_from_args(args: argparse.Namespace) -> NoiseModel:
+    """The noise model of ``--noise``, ``--noise-dist`` and ``--pose-covariance``."""
+    noise = parse_noise(args.noise, args.noise_dist)
+    path = getattr(args, "pose_covariance", None)
+    if path:
+        from hexcal.core import NoiseModel
+        from hexcal.io import read_matrix
+
+        try:
+            noise = NoiseModel(
+                leg=noise.leg, distribution=noise.distribution, pose_covariance=read_matrix(path, (6, 6))
+            )
+        except ValueError as exc:
+            raise CommandError(f"{path}: {exc}") from None
+    return noise
+
+
+def choice(value: str, allowed: Sequence[str], option: str) -> str:
+    """``value`` if it is one of ``allowed``, else a :class:`CommandError` naming ``option``.
+
+    >>> choice("A", ("D", "A"), "--criterion")
+    'A'
+    """
+    if value not in allowed:
+        raise CommandError(f"{option}: unknown {value!r}; choose from {', '.join(allowed)}")
+    return value
+
+
+def fit_mask(fit: str, fix: Sequence[str] = (), option: str | None = "--fit") -> Any:
+    """The parameter mask (48,) of ``--fit`` groups and ``--fix`` names."""
+    from hexcal.core import select_parameters
+
+    try:
+        return select_parameters(fit, fix)
+    except ValueError as exc:
+        raise CommandError(f"{option}: {exc}" if option else str(exc)) from None
+
+
+def int_list(text: str, option: str) -> list[int]:
+    """Positive integers of a comma-separated option.
+
+    >>> int_list("7,15", "--poses")
+    [7, 15]
+    """
+    try:
+        values = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise CommandError(f"{option}: {text!r} is not a comma-separated list of integers") from None
+    if not values or min(values) < 1:
+        raise CommandError(f"{option}: give positive integers, got {text!r}")
+    return values
+
+
+def check_outputs(*paths: str | None) -> None:
+    """Fail before any work when an output's folder does not exist."""
+    for path in paths:
+        if path is None:
+            continue
+        folder = Path(path).parent
+        if not folder.is_dir():
+            raise CommandError(f"{path}: the folder {folder} does not exist")
+        if Path(path).is_dir():
+            raise CommandError(f"{path}: is a folder, not a file")
+
+
+def output_folder(path: str | None) -> Path | None:
+    """The ``--out`` folder of a study (None without ``--out``); fails if it is a file."""
+    out = Path(path) if path else None
+    if out is not None and out.exists() and not out.is_dir():
+        raise CommandError(f"--out {out}: exists and is not a folder")
+    return out
+
+
+def check_trials(trials: int) -> None:
+    """Fail unless ``--trials`` is at least 1."""
+    if trials < 1:
+        raise CommandError(f"--trials must be at least 1, got {trials}")
+
+
+def warn(message: str) -> None:
+    """Print ``message`` on stderr (the caller writes the ``hexcal: warning:`` prefix)."""
+    print(message, file=sys.stderr)
+
+
+class Progress:
+    """Progress lines on stderr, about every 10 % (and at the end)."""
+
+    def __init__(self, label: str, quiet: bool = False) -> None:
+        self.label, self.quiet, self.last, self.start = label, quiet, -1, time.perf_counter()
+
+    def __call__(self, done: int, total: int) -> None:
+        step = int(10 * done / total)
+        if self.quiet or (step == self.last and done < total):
+            return
+        self.last = step
+        elapsed = time.perf_counter() - self.start
+        print(f"  {self.label}: {done}/{total} ({elapsed:.1f} s)", file=sys.stderr, flush=True)
