@@ -13,12 +13,13 @@ import math
 import sys
 import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from hexcal.errors import UsageError
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from hexcal.core import Geometry, NoiseModel
 
 #: Names of the built-in geometries (``hexcal.core.PRESETS``), spelled here so that the
@@ -162,6 +163,8 @@ def int_list(text: str, option: str) -> list[int]:
 
 def check_outputs(*paths: str | None) -> None:
     """Fail before any work when an output's folder does not exist."""
+    from pathlib import Path
+
     for path in paths:
         if path is None:
             continue
@@ -174,6 +177,8 @@ def check_outputs(*paths: str | None) -> None:
 
 def output_folder(path: str | None) -> Path | None:
     """The ``--out`` folder of a study (None without ``--out``); fails if it is a file."""
+    from pathlib import Path
+
     out = Path(path) if path else None
     if out is not None and out.exists() and not out.is_dir():
         raise CommandError(f"--out {out}: exists and is not a folder")

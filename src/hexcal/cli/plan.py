@@ -18,8 +18,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from hexcal.cli.common import (
     EULER_HELP,
@@ -34,6 +33,9 @@ from hexcal.cli.common import (
     parse_noise,
     warn,
 )
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 #: Figure names of the error maps, after the seed paper's figure numbers.
 ERRORMAP_FIGURES = {
@@ -91,6 +93,8 @@ def _candidate_kind(token: str, geometry: Any, rng: Any) -> tuple[Any, list[str]
 
 def _candidates(spec: str, geometry: Any, seed: int) -> tuple[Any, list[str]]:
     """Candidate poses and ids of a spec like ``corners+grid:3+random:1000+file.csv``."""
+    from pathlib import Path
+
     import numpy as np
 
     from hexcal.io import read_poses
@@ -153,6 +157,8 @@ def _feasible(
 
 def _errormap_options(args: argparse.Namespace) -> tuple[str, Any, Path]:
     """The checked ``--method``, parameter mask and ``--out`` folder of ``hexcal errormap``."""
+    from pathlib import Path
+
     method = choice(args.method, ("linear", "exact"), "--method")
     mask = fit_mask(args.fit)
     out = Path(args.out)

@@ -29,13 +29,15 @@ def observability_text(data: dict[str, Any], fit: str = "joints,l0") -> str:
     sv = data["singular_values"]
     noise = data["noise"]
     rank = data["rank"]
+    # infinite (σmin = 0) when the dictionary was read back from JSON, where it is null
+    condition = float("inf") if data["condition_number"] is None else data["condition_number"]
     verdict = "all identifiable" if rank == n else f"{n - rank} combination(s) NOT identifiable"
     lines = [
         f"Observability of {data['n_poses']} pose(s) for {n} parameters ({fit}); "
         f"{'noise-whitened ' if data['weighted'] else ''}identification Jacobian, "
         f"column scaling {data['scaling']}",
         f"  rank {rank} of {n}: {verdict}",
-        f"  singular values: {sv[0]:.4g} ... {sv[-1]:.4g} (condition number {data['condition_number']:.4g})",
+        f"  singular values: {sv[0]:.4g} ... {sv[-1]:.4g} (condition number {condition:.4g})",
         f"  O1 = {data['O1']:.4g}   geometric mean of the singular values (D-optimality; Borm & Menq 1991)",
         f"  O2 = {data['O2']:.4g}   σmin/σmax, inverse condition number (Driels & Pathre 1990)",
         f"  O3 = {data['O3']:.4g}   σmin (E-optimality; Nahvi, Hollerbach & Hayward 1994)",
