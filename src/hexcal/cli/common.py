@@ -1,4 +1,6 @@
-"""Helpers shared by the ``hexcal`` subcommands: option parsing and checks, progress lines.
+"""Helpers shared by the ``hexcal`` subcommands: geometry loading with ``--euler``, noise
+and id-list options, the ``--candidates`` spec and its feasibility filter, output-path
+checks, warnings and progress lines.
 
 This module imports only the standard library and :mod:`hexcal.errors` at its top, so
 that building the parser (``hexcal --help``) costs no numpy; the helpers that need the
@@ -194,6 +196,101 @@ def check_trials(trials: int) -> None:
 def warn(message: str) -> None:
     """Print ``message`` on stderr (the caller writes the ``hexcal: warning:`` prefix)."""
     print(message, file=sys.stderr)
+
+
+#: ``--candidates`` kinds and the prefixes of their pose ids.
+CANDIDATE_PREFIXES = {"corners": "c", "grid": "g", "edges": "e", "random": "r"}
+
+
+def _number(text: str, token: str, low: int) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise CommandError(f"--candidates: {token!r}: {text!r} is not a whole number") from None
+    if value < low:
+        raise CommandError(f"--candidates: {token!r}: the number must be at least {low}")
+    return value
+
+
+def _candidate_kind(token: str, geometry: Any, rng: Any) -> tuple[Any, list[str]]:
+    """Poses and ids of one built-in kind of ``--candidates`` (``grid:3``, ``random:100``...)."""
+    from hexcal.design import candidate_poses
+
+    kind, _, arg = token.partition(":")
+    if kind == "corners" and arg:
+        raise CommandError(f"--candidates: {token!r}: corners take no number")
+    if kind == "random" and not arg:
+        raise CommandError("--candidates: random needs a number, e.g. random:1000")
+    count = _number(arg, token, 1 if kind == "random" else 2) if arg else None
+    if kind in ("grid", "edges") and count is not None and count > 12:
+        raise CommandError(f"--candidates: {token!r}: at most 12 grid levels (12⁶ poses)")
+    try:
+        poses = candidate_poses(geometry, kind, count, rng)
+    except ValueError as exc:
+        raise CommandError(f"--candidates: {token}: {exc}") from None
+    width = len(str(len(poses)))
+    return poses, [f"{CANDIDATE_PREFIXES[kind]}{k:0{width}d}" for k in range(len(poses))]
+
+
+def candidate_spec(spec: str, geometry: Any, seed: int) -> tuple[Any, list[str]]:
+    """Candidate poses and ids of a spec like ``corners+grid:3+random:1000+file.csv``."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from hexcal.io import read_poses
+
+    tokens = [t.strip() for t in spec.split("+") if t.strip()]
+    if not tokens:
+        raise CommandError("--candidates: empty; give corners, grid[:L], edges[:L], random:N or a file")
+    rng = np.random.default_rng(seed)
+    parts = []
+    ids: list[str] = []
+    for token in tokens:
+        if token.partition(":")[0] in CANDIDATE_PREFIXES:
+            poses, new_ids = _candidate_kind(token, geometry, rng)
+            ids += new_ids
+        else:
+            if not Path(token).exists():
+                raise CommandError(
+                    f"--candidates: {token!r} is neither corners, grid[:L], edges[:L], random:N nor a file"
+                )
+            poses, file_ids = read_poses(token, geometry.euler)
+            ids += list(file_ids)
+        parts.append(poses)
+    seen: set[str] = set()
+    for i in ids:
+        if i in seen:
+            raise CommandError(f"--candidates: pose id {i!r} appears twice; give the files distinct ids")
+        seen.add(i)
+    return np.concatenate(parts), ids
+
+
+def feasible_candidates(
+    geometry: Any, poses: Any, ids: list[str], min_distance: float | None
+) -> tuple[Any, list[str], str | None]:
+    """Feasible candidates, their ids, and a warning naming the infeasible ones (or None).
+
+    The warning is printed once the command has succeeded, so that a failure stays one line.
+    """
+    import numpy as np
+
+    from hexcal.design import MIN_SINGULARITY_DISTANCE, check_feasibility
+
+    threshold = MIN_SINGULARITY_DISTANCE if min_distance is None else min_distance
+    if not (math.isfinite(threshold) and threshold >= 0):
+        raise CommandError(f"--min-distance must be a finite value >= 0, got {threshold}")
+    report = check_feasibility(geometry, poses, threshold)
+    keep = np.flatnonzero(report.feasible)
+    if keep.size == 0:
+        raise CommandError(f"no feasible candidate pose: {report.summary()}")
+    warning = None
+    if report.n_infeasible:
+        bad = np.flatnonzero(~report.feasible)
+        detail = "; ".join(f"{ids[k]}: {report.reasons(k)}" for k in bad[:5])
+        more = f" ... ids {id_list([ids[k] for k in bad])}" if bad.size > 5 else ""
+        warning = f"hexcal: warning: candidates: {report.summary()}; never proposed ({detail}{more})"
+    return poses[keep], [ids[k] for k in keep], warning
 
 
 class Progress:

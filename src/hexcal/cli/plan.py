@@ -25,8 +25,10 @@ from hexcal.cli.common import (
     GEOMETRY_HELP,
     NOISE_HELP,
     CommandError,
+    candidate_spec,
     check_outputs,
     choice,
+    feasible_candidates,
     fit_mask,
     id_list,
     load_geometry,
@@ -47,9 +49,6 @@ ERRORMAP_FIGURES = {
     "b-c": "fig9_b-c.png",
 }
 
-#: ``--candidates`` kinds and the prefixes of their pose ids.
-CANDIDATE_PREFIXES = {"corners": "c", "grid": "g", "edges": "e", "random": "r"}
-
 CANDIDATES_HELP = "corners, grid[:L], edges[:L], random:N, FILE; join with +"
 FIT_HELP = "parameter groups: joints, base, platform, l0, gains"
 
@@ -59,97 +58,6 @@ FIT_HELP = "parameter groups: joints, base, platform, l0, gains"
 
 def _noise(args: argparse.Namespace) -> Any:
     return parse_noise(args.noise, choice(args.noise_dist, ("uniform", "normal"), "--noise-dist"))
-
-
-def _number(text: str, token: str, low: int) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise CommandError(f"--candidates: {token!r}: {text!r} is not a whole number") from None
-    if value < low:
-        raise CommandError(f"--candidates: {token!r}: the number must be at least {low}")
-    return value
-
-
-def _candidate_kind(token: str, geometry: Any, rng: Any) -> tuple[Any, list[str]]:
-    """Poses and ids of one built-in kind of ``--candidates`` (``grid:3``, ``random:100``...)."""
-    from hexcal.design import candidate_poses
-
-    kind, _, arg = token.partition(":")
-    if kind == "corners" and arg:
-        raise CommandError(f"--candidates: {token!r}: corners take no number")
-    if kind == "random" and not arg:
-        raise CommandError("--candidates: random needs a number, e.g. random:1000")
-    count = _number(arg, token, 1 if kind == "random" else 2) if arg else None
-    if kind in ("grid", "edges") and count is not None and count > 12:
-        raise CommandError(f"--candidates: {token!r}: at most 12 grid levels (12⁶ poses)")
-    try:
-        poses = candidate_poses(geometry, kind, count, rng)
-    except ValueError as exc:
-        raise CommandError(f"--candidates: {token}: {exc}") from None
-    width = len(str(len(poses)))
-    return poses, [f"{CANDIDATE_PREFIXES[kind]}{k:0{width}d}" for k in range(len(poses))]
-
-
-def _candidates(spec: str, geometry: Any, seed: int) -> tuple[Any, list[str]]:
-    """Candidate poses and ids of a spec like ``corners+grid:3+random:1000+file.csv``."""
-    from pathlib import Path
-
-    import numpy as np
-
-    from hexcal.io import read_poses
-
-    tokens = [t.strip() for t in spec.split("+") if t.strip()]
-    if not tokens:
-        raise CommandError("--candidates: empty; give corners, grid[:L], edges[:L], random:N or a file")
-    rng = np.random.default_rng(seed)
-    parts = []
-    ids: list[str] = []
-    for token in tokens:
-        if token.partition(":")[0] in CANDIDATE_PREFIXES:
-            poses, new_ids = _candidate_kind(token, geometry, rng)
-            ids += new_ids
-        else:
-            if not Path(token).exists():
-                raise CommandError(
-                    f"--candidates: {token!r} is neither corners, grid[:L], edges[:L], random:N nor a file"
-                )
-            poses, file_ids = read_poses(token, geometry.euler)
-            ids += list(file_ids)
-        parts.append(poses)
-    seen: set[str] = set()
-    for i in ids:
-        if i in seen:
-            raise CommandError(f"--candidates: pose id {i!r} appears twice; give the files distinct ids")
-        seen.add(i)
-    return np.concatenate(parts), ids
-
-
-def _feasible(
-    geometry: Any, poses: Any, ids: list[str], min_distance: float | None
-) -> tuple[Any, list[str], str | None]:
-    """Feasible candidates, their ids, and a warning naming the infeasible ones (or None).
-
-    The warning is printed once the command has succeeded, so that a failure stays one line.
-    """
-    import numpy as np
-
-    from hexcal.design import MIN_SINGULARITY_DISTANCE, check_feasibility
-
-    threshold = MIN_SINGULARITY_DISTANCE if min_distance is None else min_distance
-    if not (math.isfinite(threshold) and threshold >= 0):
-        raise CommandError(f"--min-distance must be a finite value >= 0, got {threshold}")
-    report = check_feasibility(geometry, poses, threshold)
-    keep = np.flatnonzero(report.feasible)
-    if keep.size == 0:
-        raise CommandError(f"no feasible candidate pose: {report.summary()}")
-    warning = None
-    if report.n_infeasible:
-        bad = np.flatnonzero(~report.feasible)
-        detail = "; ".join(f"{ids[k]}: {report.reasons(k)}" for k in bad[:5])
-        more = f" ... ids {id_list([ids[k] for k in bad])}" if bad.size > 5 else ""
-        warning = f"hexcal: warning: candidates: {report.summary()}; never proposed ({detail}{more})"
-    return poses[keep], [ids[k] for k in keep], warning
 
 
 # -- errormap -----------------------------------------------------------------------------------
@@ -283,19 +191,18 @@ def cmd_candidates(args: argparse.Namespace) -> None:
 
     check_outputs(args.out)
     geometry = load_geometry(args.geometry, args.euler)
-    poses, ids = _candidates(args.candidates, geometry, args.seed)
-    feasible, kept, warning = _feasible(geometry, poses, ids, args.min_distance)
+    poses, ids = candidate_spec(args.candidates, geometry, args.seed)
+    feasible, kept, warning = feasible_candidates(geometry, poses, ids, args.min_distance)
     if warning:
         warn(warning)
     write_poses(args.out, feasible, kept, comment=f"feasible candidates {args.candidates} (seed {args.seed})")
     print(f"wrote {len(kept)} feasible of {len(ids)} candidate pose(s) to {args.out}")
 
 
-def _select(args: argparse.Namespace, geometry: Any, criterion: str, noise: Any, mask: Any, rng: Any) -> dict:
-    """The poses of ``hexcal select``'s strategy: poses, ids, label, selection (or None),
-    warning, feasible corners, seconds."""
+def _select(args: argparse.Namespace, geometry: Any, criterion: str, noise: Any, mask: Any, rng: Any) -> Any:
+    """The :class:`hexcal.design.planning.PoseSelection` of ``hexcal select``'s options."""
     from hexcal.design import information_blocks, random_subsets, select_poses
-    from hexcal.design.planning import feasible_corners
+    from hexcal.design.planning import PoseSelection, compare_strategies, feasible_corners
 
     n = args.n
     corners, corner_ids = feasible_corners(geometry, args.min_distance)
@@ -312,8 +219,8 @@ def _select(args: argparse.Namespace, geometry: Any, criterion: str, noise: Any,
         poses, ids = corners[chosen], [f"c{int(corner_ids[k]):02d}" for k in chosen]
         label = f"{n} random feasible corners (the seed paper's strategy), seed {args.seed}"
     else:
-        candidates, cand_ids = _candidates(args.candidates, geometry, args.seed)
-        feasible, kept, warning = _feasible(geometry, candidates, cand_ids, args.min_distance)
+        candidates, cand_ids = candidate_spec(args.candidates, geometry, args.seed)
+        feasible, kept, warning = feasible_candidates(geometry, candidates, cand_ids, args.min_distance)
         if n > len(kept):
             dropped = f" ({len(cand_ids) - len(kept)} infeasible left out)" if warning else ""
             raise CommandError(f"--n {n}: only {len(kept)} feasible candidate pose(s){dropped}")
@@ -324,9 +231,12 @@ def _select(args: argparse.Namespace, geometry: Any, criterion: str, noise: Any,
             f"{criterion}-optimal from {len(kept)} feasible candidates ({args.candidates}), seed {args.seed}"
         )
     seconds = time.perf_counter() - start
-    return dict(
-        poses=poses, ids=ids, label=label, result=result, warning=warning, corners=corners, seconds=seconds
+    comparison = compare_strategies(geometry, poses, noise, mask, rng, corners)
+    selection = PoseSelection(
+        args.strategy, n, args.seed, poses, ids, label, seconds, comparison,
+        selection=result, criterion=criterion, candidates=args.candidates,
     )
+    return selection, warning
 
 
 def cmd_select(args: argparse.Namespace) -> None:
@@ -334,46 +244,26 @@ def cmd_select(args: argparse.Namespace) -> None:
     import numpy as np
 
     from hexcal.core import MIN_POSES
-    from hexcal.design import CRITERIA, describe_value
-    from hexcal.design.planning import compare_strategies
+    from hexcal.design import CRITERIA
     from hexcal.io import atomic_write, write_poses
     from hexcal.report import render
 
     check_outputs(args.out, args.json)
     geometry = load_geometry(args.geometry, args.euler)
     criterion = choice(args.criterion, CRITERIA, "--criterion")
-    strategy = choice(args.strategy, ("optimal", "paper"), "--strategy")
+    choice(args.strategy, ("optimal", "paper"), "--strategy")
     mask = fit_mask(args.fit)
     noise = _noise(args)
     n = args.n
     min_poses = MIN_POSES + (1 if mask[42:].any() else 0)
     if n < min_poses:
         raise CommandError(f"--n {n}: at least {min_poses} poses are needed to identify the parameters")
-    rng = np.random.default_rng(args.seed)
-    chosen = _select(args, geometry, criterion, noise, mask, rng)
-    result = chosen["result"]
-    comparison = compare_strategies(geometry, chosen["poses"], noise, mask, rng, chosen["corners"])
-    data = {
-        "strategy": strategy,
-        "criterion": criterion if result is not None else None,
-        "n": n,
-        "seed": args.seed,
-        "candidates": args.candidates if result is not None else "corners",
-        "ids": chosen["ids"],
-        "indices": [int(k) for k in result.indices] if result is not None else None,
-        "value": result.value if result is not None else None,
-        "greedy_value": result.greedy_value if result is not None else None,
-        "swaps": result.swaps if result is not None else 0,
-        "seconds": chosen["seconds"],
-        **comparison.to_dict(),
-        "label": chosen["label"],
-        "greedy_text": describe_value(result.greedy_value, criterion) if result is not None else None,
-        "value_text": describe_value(result.value, criterion) if result is not None else None,
-    }
+    selection, warning = _select(args, geometry, criterion, noise, mask, np.random.default_rng(args.seed))
+    data = selection.to_dict()
     print(render("select", data))
-    if chosen["warning"]:
-        warn(chosen["warning"])
-    write_poses(args.out, chosen["poses"], chosen["ids"], comment=f"hexcal select: {chosen['label']}")
+    if warning:
+        warn(warning)
+    write_poses(args.out, selection.poses, selection.ids, comment=f"hexcal select: {selection.label}")
     if args.json:
         with atomic_write(args.json) as fh:
             fh.write(render("select", data, "json"))

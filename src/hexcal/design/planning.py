@@ -217,3 +217,62 @@ def compare_strategies(
         rows["interior"] = predicted_error(geometry, interior, noise, mask)
         descriptions["interior"] = f"{n} random interior poses, mean of {draws} draws"
     return StrategyComparison(n, rows, descriptions)
+
+
+@dataclass
+class PoseSelection:
+    """Measurement poses chosen by a strategy, with their predicted accuracy.
+
+    ``strategy`` is ``optimal`` (``selection`` the :class:`hexcal.design.SelectionResult`
+    by ``criterion`` from the ``candidates`` spec) or ``paper`` (random feasible corners;
+    ``selection`` None). ``poses`` (n, 6) in mm and rad, ``ids`` their names, ``label``
+    says what was selected, ``seconds`` the time of the selection.
+    """
+
+    strategy: str
+    n: int
+    seed: int
+    poses: NDArray[np.float64]
+    ids: list[str]
+    label: str
+    seconds: float
+    comparison: StrategyComparison
+    selection: Any | None = None
+    criterion: str | None = None
+    candidates: str = "corners"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python form: the keys of ``hexcal select --json`` (in order), then ``comparisons``,
+        ``label``, ``greedy_text`` and ``value_text`` (criterion values in words, or None).
+
+        Examples
+        --------
+        >>> from hexcal.core import NoiseModel, preset
+        >>> geometry = preset("paper-hmt")
+        >>> corners, _ = feasible_corners(geometry)
+        >>> poses = corners[[0, 9, 18, 27, 36, 45, 54, 63, 5, 12, 23, 30, 41, 50, 58]]
+        >>> comparison = compare_strategies(geometry, poses, NoiseModel(), rng=0)
+        >>> chosen = PoseSelection("paper", 15, 0, poses, ["c00"] * 15, "15 corners", 0.0, comparison)
+        >>> list(chosen.to_dict())[:6]
+        ['strategy', 'criterion', 'n', 'seed', 'candidates', 'ids']
+        """
+        from hexcal.design import describe_value
+
+        r = self.selection
+        return {
+            "strategy": self.strategy,
+            "criterion": self.criterion if r is not None else None,
+            "n": self.n,
+            "seed": self.seed,
+            "candidates": self.candidates if r is not None else "corners",
+            "ids": list(self.ids),
+            "indices": [int(k) for k in r.indices] if r is not None else None,
+            "value": r.value if r is not None else None,
+            "greedy_value": r.greedy_value if r is not None else None,
+            "swaps": r.swaps if r is not None else 0,
+            "seconds": self.seconds,
+            **self.comparison.to_dict(),
+            "label": self.label,
+            "greedy_text": describe_value(r.greedy_value, self.criterion) if r is not None else None,
+            "value_text": describe_value(r.value, self.criterion) if r is not None else None,
+        }
