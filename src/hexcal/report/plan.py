@@ -129,6 +129,11 @@ def select_text(data: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _both(by_key: dict[str, Any], key: str, spec: str) -> str:
+    """``position / orientation`` values of ``key`` in format ``spec``."""
+    return f"{by_key['position'][key]:{spec}} / {by_key['orientation'][key]:{spec}}"
+
+
 def claims_text(summary: dict[str, Any]) -> str:
     """The numbers of the error-map claims (:func:`hexcal.design.claims`) as a short report
     on the seed paper's boundary and height claims."""
@@ -138,47 +143,38 @@ def claims_text(summary: dict[str, Any]) -> str:
         lines_.append(
             f"  {axis} sweep: max at an end in {p['max_at_an_end']:.0%} (position) / "
             f"{o['max_at_an_end']:.0%} (orientation) of the mean curves, "
-            f"{p['max_at_an_end_single_draws']:.0%} / {o['max_at_an_end_single_draws']:.0%} of single draws; "
-            f"end / centre = {p['end_over_centre']:.3f} / {o['end_over_centre']:.3f}"
+            f"{_both(by_key, 'max_at_an_end_single_draws', '.0%')} of single draws; "
+            f"end / centre = {_both(by_key, 'end_over_centre', '.3f')}"
         )
     for name, by_key in summary["angles"].items():
-        p, o = by_key["position"], by_key["orientation"]
         lines_.append(
-            f"  {name} grid: max on the boundary at {p['max_on_boundary']:.0%} / "
-            f"{o['max_on_boundary']:.0%} of z levels (at a corner {p['max_at_a_corner']:.0%} / "
-            f"{o['max_at_a_corner']:.0%}); max / centre = {p['max_over_centre']:.3f} / "
-            f"{o['max_over_centre']:.3f}"
+            f"  {name} grid: max on the boundary at {_both(by_key, 'max_on_boundary', '.0%')} "
+            f"of z levels (at a corner {_both(by_key, 'max_at_a_corner', '.0%')}); "
+            f"max / centre = {_both(by_key, 'max_over_centre', '.3f')}"
         )
     wp, wo = summary["workspace"]["position"], summary["workspace"]["orientation"]
     lines_.append(
         f"  64 corners vs random interior poses: {wp['corners_mean']:.4f} vs {wp['interior_mean']:.4f} mm "
         f"(x{wp['corners_over_interior']:.3f}), {wo['corners_mean'] * 1e3:.4f} vs "
         f"{wo['interior_mean'] * 1e3:.4f} mrad (x{wo['corners_over_interior']:.3f}); "
-        f"{wp['interior_above_corner_mean']:.0%} / {wo['interior_above_corner_mean']:.0%} of interior "
+        f"{_both(summary['workspace'], 'interior_above_corner_mean', '.0%')} of interior "
         "poses exceed the corners' mean"
     )
     lines_.append("Height claim (errors larger at larger z):")
     for axis in ("x", "y"):
-        p, o = summary["lines"][axis]["position"], summary["lines"][axis]["orientation"]
+        by_key = summary["lines"][axis]
         lines_.append(
             f"  {axis} sweeps: rank correlation of z with the curve mean "
-            f"{p['level_rank_correlation']:+.3f} / {o['level_rank_correlation']:+.3f}; "
-            f"top z / bottom z = {p['top_level_over_bottom_level']:.3f} / "
-            f"{o['top_level_over_bottom_level']:.3f}"
+            f"{_both(by_key, 'level_rank_correlation', '+.3f')}; "
+            f"top z / bottom z = {_both(by_key, 'top_level_over_bottom_level', '.3f')}"
         )
-    p, o = summary["lines"]["z"]["position"], summary["lines"]["z"]["orientation"]
     lines_.append(
-        f"  z sweeps: max at the upper end (largest z) in {p['max_at_upper_end']:.0%} / "
-        f"{o['max_at_upper_end']:.0%} of the curves"
+        "  z sweeps: max at the upper end (largest z) in "
+        f"{_both(summary['lines']['z'], 'max_at_upper_end', '.0%')} of the curves"
     )
     for name, by_key in summary["angles"].items():
-        p, o = by_key["position"], by_key["orientation"]
-        lines_.append(
-            f"  {name} grids: top z / bottom z = {p['top_level_over_bottom_level']:.3f} / "
-            f"{o['top_level_over_bottom_level']:.3f}"
-        )
-    lines_.append(
-        f"  corners at the top z / bottom z: {wp['corners_top_z_over_bottom_z']:.3f} / "
-        f"{wo['corners_top_z_over_bottom_z']:.3f}"
-    )
+        ratio = _both(by_key, "top_level_over_bottom_level", ".3f")
+        lines_.append(f"  {name} grids: top z / bottom z = {ratio}")
+    ratio = _both(summary["workspace"], "corners_top_z_over_bottom_z", ".3f")
+    lines_.append(f"  corners at the top z / bottom z: {ratio}")
     return "\n".join(lines_)
