@@ -523,3 +523,129 @@ def test_fk_unreachable_lengths_without_limits_report_no_convergence(capsys, tmp
     line = assert_one_error_line(status, err)
     assert "did not converge" in line and "1, 2" in line
     assert not out.exists()
+
+
+# -- structure and start-up of the command line (issue 8) --------------------------------------
+
+CLI_DIR = Path(__file__).resolve().parents[1] / "src" / "hexcal" / "cli"
+
+
+def _top_imports(path: Path) -> set[str]:
+    """Modules imported at the top level of a file (not inside functions or TYPE_CHECKING)."""
+    import ast
+
+    names: set[str] = set()
+    for node in ast.parse(path.read_text()).body:
+        if isinstance(node, ast.Import):
+            names |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            names.add(node.module)
+    return names
+
+
+def test_cli_module_tops_import_only_the_standard_library_errors_and_common():
+    allowed = {"hexcal.errors", "hexcal.cli.common", "hexcal._lazy"}
+    for path in sorted(CLI_DIR.glob("*.py")):
+        imports = _top_imports(path)
+        hexcal_imports = {m for m in imports if m.split(".")[0] == "hexcal"} - allowed
+        if path.name == "main.py":  # assembles the parser from the command modules
+            hexcal_imports -= {"hexcal.cli"}
+        if path.name == "__init__.py":  # re-exports main
+            hexcal_imports -= {"hexcal.cli.main"}
+        assert not hexcal_imports, f"{path.name} imports {hexcal_imports} at its top"
+        third_party = {m for m in imports if m.split(".")[0] in ("numpy", "scipy", "yaml", "matplotlib")}
+        assert not third_party, f"{path.name} imports {third_party} at its top"
+    # the command modules never import main nor the package (no cycle), even inside functions
+    import ast
+
+    for name in ("common", "kinematics", "calibrate", "simulate", "plan"):
+        for node in ast.walk(ast.parse((CLI_DIR / f"{name}.py").read_text())):
+            if isinstance(node, ast.ImportFrom):
+                assert node.module not in ("hexcal.cli", "hexcal.cli.main"), name
+            elif isinstance(node, ast.Import):
+                assert not {a.name for a in node.names} & {"hexcal.cli", "hexcal.cli.main"}, name
+
+
+def _modules_after(argv: list[str], cwd: Path) -> set[str]:
+    probe = (
+        "import sys\n"
+        "from hexcal.cli import main\n"
+        "try:\n    main(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
+        "print(' '.join(sorted(sys.modules)), file=sys.stderr)\n"
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", probe, *argv],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    return set(run.stderr.strip().splitlines()[-1].split())
+
+
+def test_help_imports_no_numpy_and_ik_no_scipy(tmp_path):
+    assert "numpy" not in _modules_after(["--help"], tmp_path)
+    assert "numpy" not in _modules_after(["ik", "--help"], tmp_path)
+    poses = workspace_corners(preset("paper-hmt"))[:5]
+    write_poses(tmp_path / "poses.csv", poses, [f"p{k}" for k in range(5)])
+    modules = _modules_after(
+        ["ik", "--geometry", "paper-hmt", "--poses", "poses.csv", "--out", "legs.csv"], tmp_path
+    )
+    assert (tmp_path / "legs.csv").exists()
+    assert "numpy" in modules and "scipy" not in modules and "matplotlib" not in modules
+
+
+def test_preset_names_of_the_parser_are_the_presets():
+    from hexcal.cli.common import PRESET_NAMES
+    from hexcal.core import PRESETS
+
+    assert tuple(PRESET_NAMES) == tuple(PRESETS)
+
+
+def test_command_error_is_a_usage_error_and_main_is_the_function():
+    import hexcal.cli
+    from hexcal.cli import CommandError
+    from hexcal.errors import HexcalError, UsageError
+
+    assert issubclass(CommandError, UsageError) and issubclass(CommandError, HexcalError)
+    assert callable(hexcal.cli.main) and hexcal.cli.main is main
+
+
+def test_interrupt_prints_one_line_and_exits_130(capsys, monkeypatch, tmp_path):
+    from hexcal.cli import kinematics
+
+    def interrupted(_args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(kinematics, "cmd_preset", interrupted)
+    status, out, err = run(capsys, "preset", "paper-hmt", "--out", tmp_path / "g.yaml")
+    assert (status, out, err) == (130, "", "hexcal: interrupted\n")
+
+
+def test_warnings_print_as_one_hexcal_line(capsys, monkeypatch, tmp_path):
+    import warnings
+
+    from hexcal.cli import kinematics
+    from hexcal.errors import InputWarning
+
+    def warns(_args):
+        warnings.warn("angles look like degrees", InputWarning, stacklevel=1)
+
+    monkeypatch.setattr(kinematics, "cmd_preset", warns)
+    status, _, err = run(capsys, "preset", "paper-hmt", "--out", tmp_path / "g.yaml")
+    assert (status, err) == (0, "hexcal: warning: angles look like degrees\n")
+
+
+def test_public_api_is_lazy_and_complete():
+    probe = "import sys, hexcal; print('numpy' in sys.modules); print(' '.join(hexcal.__all__))"
+    run = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=60, check=True
+    )
+    numpy_loaded, names = run.stdout.splitlines()
+    assert numpy_loaded == "False"
+    import hexcal
+
+    for name in names.split():
+        assert getattr(hexcal, name) is not None, name
+    assert {"Geometry", "preset", "estimate", "ESTIMATORS", "run_study", "HexcalError"} <= set(names.split())

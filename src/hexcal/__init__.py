@@ -1,4 +1,27 @@
-"""hexcal: kinematic calibration of hexapods (Stewart-Gough platforms, hexapod machine tools)."""
+"""hexcal: kinematic calibration of hexapods (Stewart-Gough platforms, hexapod machine tools).
+
+The public API below is lazy (PEP 562): ``import hexcal`` is cheap, and each name loads
+its layer when first used. Layers: :mod:`hexcal.core` -> :mod:`hexcal.models` ->
+:mod:`hexcal.estimation` -> :mod:`hexcal.design` -> :mod:`hexcal.simulation` ->
+:mod:`hexcal.report` -> :mod:`hexcal.io` / :mod:`hexcal.cli`.
+
+A notebook session: the seed paper's machine, the leg lengths of its home pose and back,
+then a calibration from 20 simulated measurements at workspace corners.
+
+>>> import hexcal
+>>> nominal = hexcal.preset("paper-hmt")
+>>> legs = hexcal.inverse_kinematics(nominal, nominal.home_pose)
+>>> legs.round(2)
+array([828.36, 828.36, 828.36, 828.36, 828.36, 828.36])
+>>> hexcal.forward_kinematics(nominal, legs, guess=nominal.home_pose).poses.round(6)
+array([  0.,   0., 800.,   0.,   0.,   0.])
+>>> from hexcal.simulation import simulate_measurements
+>>> poses = hexcal.workspace_corners(nominal)[:20]
+>>> data = simulate_measurements(nominal, hexcal.preset("paper-hmt-true"), poses, hexcal.NoiseModel(), rng=0)
+>>> result = hexcal.estimate(nominal, data, "length")
+>>> result.rank, len(result.names)
+(42, 42)
+"""
 
 import os as _os
 
@@ -9,4 +32,45 @@ import os as _os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
+from hexcal._lazy import attach  # noqa: E402
+
 __version__ = "0.1.0"
+
+# public name -> the layer package that exports it (each layer resolves its own submodule)
+_PUBLIC = {
+    "Geometry": "core",
+    "preset": "core",
+    "inverse_kinematics": "core",
+    "forward_kinematics": "core",
+    "pose_jacobian": "core",
+    "leg_lengths": "core",
+    "leg_readings": "core",
+    "workspace_corners": "core",
+    "random_poses": "core",
+    "ParameterSet": "core",
+    "select_parameters": "core",
+    "Measurements": "models",
+    "MeasurementModel": "models",
+    "FullPoseModel": "models",
+    "NoiseModel": "core",
+    "estimate": "estimation",
+    "ESTIMATORS": "estimation",
+    "IdentificationResult": "estimation",
+    "identify_robust": "estimation",
+    "validate": "estimation",
+    "compensate": "core",
+    "analyse_poses": "design",
+    "select_poses": "design",
+    "candidate_poses": "design",
+    "run_paper_experiment": "simulation",
+    "run_study": "simulation",
+    "load_geometry": "io",
+    "save_geometry": "io",
+    "read_measurements": "io",
+    "read_poses": "io",
+    "write_poses": "io",
+    "HexcalError": "errors",
+}
+
+__getattr__, __dir__, __all__ = attach(__name__, _PUBLIC)
+__all__ = [*__all__, "__version__"]

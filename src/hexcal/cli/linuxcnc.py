@@ -23,12 +23,10 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-
-class LinuxCNCCommandError(ValueError):
-    """A failure of a LinuxCNC subcommand, reported as one line."""
+from hexcal.cli.common import GEOMETRY_HELP, CommandError
 
 
-def register(sub: Any, geometry_help: str) -> None:
+def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
     """Add ``export`` and ``import`` to the ``hexcal`` parser's subparsers."""
     p = sub.add_parser("export", help="write a geometry in a controller's format (LinuxCNC genhexkins)")
     p.add_argument("target", choices=("linuxcnc",), help="controller format")
@@ -69,9 +67,9 @@ def _read_text(path: str, what: str) -> str:
         with open(path, encoding="utf-8") as fh:
             return fh.read()
     except FileNotFoundError:
-        raise LinuxCNCCommandError(f"{path}: no such {what} file") from None
+        raise CommandError(f"{path}: no such {what} file") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise LinuxCNCCommandError(f"{path}: cannot read: {exc}") from None
+        raise CommandError(f"{path}: cannot read: {exc}") from None
 
 
 def write_all_or_nothing(folder: Path, files: dict[str, str]) -> None:
@@ -135,15 +133,15 @@ def cmd_export(args: argparse.Namespace) -> None:
     files = export_linuxcnc(geometry, source=source, source_sha256=sha256, source_date=date)
     folder = Path(args.out)
     if folder.exists() and not folder.is_dir():
-        raise LinuxCNCCommandError(f"{folder}: is a file, not a folder")
+        raise CommandError(f"{folder}: is a file, not a folder")
     if not folder.exists():
         parent = folder.parent if str(folder.parent) else Path(".")
         if not parent.is_dir():
-            raise LinuxCNCCommandError(f"{folder}: the folder {parent} does not exist")
+            raise CommandError(f"{folder}: the folder {parent} does not exist")
     if args.geometry not in PRESETS:
         for name in files:
             if _same_file(folder / name, Path(args.geometry)):
-                raise LinuxCNCCommandError(f"{folder / name}: is the input geometry; choose another --out")
+                raise CommandError(f"{folder / name}: is the input geometry; choose another --out")
     warning = euler_warning(geometry)
     created = not folder.exists()
     folder.mkdir(exist_ok=True)
@@ -165,9 +163,9 @@ def _parse_home(text: str) -> list[float]:
     try:
         values = [float(p) for p in parts]
     except ValueError:
-        raise LinuxCNCCommandError(f"--home: {text!r} is not six numbers X,Y,Z,A,B,C") from None
+        raise CommandError(f"--home: {text!r} is not six numbers X,Y,Z,A,B,C") from None
     if len(values) != 6 or not all(abs(v) < float("inf") for v in values):
-        raise LinuxCNCCommandError(f"--home: {text!r} is not six finite numbers X,Y,Z,A,B,C")
+        raise CommandError(f"--home: {text!r} is not six finite numbers X,Y,Z,A,B,C")
     return values
 
 
@@ -178,10 +176,10 @@ def cmd_import(args: argparse.Namespace) -> None:
     out = Path(args.out)
     for given in (args.hal, args.ini):
         if given and (_same_file(out, Path(given)) or out.resolve() == Path(given).resolve()):
-            raise LinuxCNCCommandError(f"{out}: is an input file; choose another --out")
+            raise CommandError(f"{out}: is an input file; choose another --out")
     folder = out.parent if str(out.parent) else Path(".")
     if not folder.is_dir():
-        raise LinuxCNCCommandError(f"{out}: the folder {folder} does not exist")
+        raise CommandError(f"{out}: the folder {folder} does not exist")
     hal_text = _read_text(args.hal, "HAL")
     ini_text = _read_text(args.ini, "INI") if args.ini else None
     home = _parse_home(args.home) if args.home else None

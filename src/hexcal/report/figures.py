@@ -1,8 +1,15 @@
-"""Figures (the only module that imports matplotlib)."""
+"""Figures: the only module of hexcal that imports matplotlib.
+
+Every ``plot_*`` draws from plain data (dictionaries of :mod:`hexcal.report.convert`,
+study rows, arrays, or the array attributes of an error map) and writes a PNG file
+atomically. Imports numpy, matplotlib and :mod:`hexcal.core`.
+"""
 
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import matplotlib
 
@@ -10,9 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hexcal.core.parameters import PARAMETER_NAMES
-from hexcal.design.errormap import AngleMap, LineMap
-from hexcal.simulation.campaign import PaperExperiment
+from hexcal.core import PARAMETER_NAMES
 
 
 def _save(fig: plt.Figure, path: str | os.PathLike[str]) -> None:
@@ -22,15 +27,15 @@ def _save(fig: plt.Figure, path: str | os.PathLike[str]) -> None:
     os.replace(tmp, path)
 
 
-def plot_parameter_errors(experiment: PaperExperiment, path: str | os.PathLike[str]) -> None:
+def plot_parameter_errors(data: Mapping[str, Any], path: str | os.PathLike[str]) -> None:
     """Like the paper's Fig. 10: error of each parameter before and after calibration.
 
-    Bars are the mean absolute error over trials of each of the 42 parameters.
+    ``data`` is :func:`hexcal.report.paper_figure_data`: bars are its ``before``,
+    ``interior`` and ``boundary`` arrays (42,), the mean absolute error over ``trials``
+    trials of each of the 42 parameters (mm).
     """
     names = PARAMETER_NAMES[:42]
-    before = np.abs(experiment.nominal_vector - experiment.true_vectors).mean(axis=0)
-    interior = np.nanmean(np.abs(experiment.interior_vectors - experiment.true_vectors), axis=0)
-    boundary = np.nanmean(np.abs(experiment.boundary_vectors - experiment.true_vectors), axis=0)
+    before, interior, boundary = data["before"], data["interior"], data["boundary"]
     x = np.arange(len(names))
     fig, ax = plt.subplots(figsize=(13, 4.5))
     ax.bar(x - 0.27, before, 0.27, label="before calibration")
@@ -39,21 +44,23 @@ def plot_parameter_errors(experiment: PaperExperiment, path: str | os.PathLike[s
     ax.set_xticks(x, names, rotation=90, fontsize=7)
     ax.set_ylabel("mean absolute error (mm)")
     ax.set_yscale("log")
-    ax.set_title(f"Identified parameter errors ({experiment.trials} trials)")
+    ax.set_title(f"Identified parameter errors ({data['trials']} trials)")
     ax.legend()
     _save(fig, path)
 
 
-def plot_validation_errors(experiment: PaperExperiment, path: str | os.PathLike[str]) -> None:
+def plot_validation_errors(data: Mapping[str, Any], path: str | os.PathLike[str]) -> None:
     """Like the paper's Fig. 11: position and orientation error of the validation poses.
 
-    Shows the first trial's validation poses, before and after calibration.
+    ``data`` is :func:`hexcal.report.paper_figure_data`: the first trial's errors at the
+    validation poses, before (``validation_before``) and after (``validation_after``)
+    calibration, each with ``position`` (mm) and ``orientation`` (rad) arrays.
     """
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    k = np.arange(1, experiment.validation_targets.shape[1] + 1)
+    k = np.arange(1, len(data["validation_before"]["position"]) + 1)
     for ax, key, unit in zip(axes, ("position", "orientation"), ("mm", "rad"), strict=True):
-        ax.semilogy(k, experiment.validation_before[key][0], "o-", label="nominal parameters")
-        ax.semilogy(k, experiment.validation_after[key][0], "s-", label="identified parameters")
+        ax.semilogy(k, data["validation_before"][key], "o-", label="nominal parameters")
+        ax.semilogy(k, data["validation_after"][key], "s-", label="identified parameters")
         ax.set_xlabel("validation pose")
         ax.set_ylabel(f"{key} error ({unit})")
         ax.set_xticks(k)
@@ -63,13 +70,14 @@ def plot_validation_errors(experiment: PaperExperiment, path: str | os.PathLike[
     _save(fig, path)
 
 
-def plot_study(cells: list, path: str | os.PathLike[str]) -> None:
+def plot_study(rows: Sequence[Any], path: str | os.PathLike[str]) -> None:
     """Mean absolute parameter error against the number of poses, per strategy and method.
 
     Dashed lines are the Cramér–Rao bounds of the same pose strategies (one per strategy
-    and noise level). ``cells`` are :class:`hexcal.simulation.study.StudyCell` objects.
+    and noise level). ``rows`` are the ``StudyCell.row()`` dictionaries of a study (cells
+    themselves are accepted too).
     """
-    rows = [c.row() for c in cells]
+    rows = [r.row() if hasattr(r, "row") else r for r in rows]
     fig, ax = plt.subplots(figsize=(8, 5))
     keys = sorted({(r["strategy"], r["noise"], r["method"]) for r in rows})
     for strategy, noise, method in keys:
@@ -100,7 +108,7 @@ def plot_study(cells: list, path: str | os.PathLike[str]) -> None:
 # -- observability and pose selection (issue 4) -------------------------------------------------
 
 
-def plot_error_lines(line_map: LineMap, path: str | os.PathLike[str], curves: int = 20) -> None:
+def plot_error_lines(line_map: Any, path: str | os.PathLike[str], curves: int = 20) -> None:
     """Like the seed paper's Figs. 4-6: pose error along a sweep, one curve per level.
 
     Shows ``curves`` of the levels (evenly chosen, coloured by the level value); each curve
@@ -132,7 +140,7 @@ def plot_error_lines(line_map: LineMap, path: str | os.PathLike[str], curves: in
     _save(fig, path)
 
 
-def plot_error_angles(angle_map: AngleMap, path: str | os.PathLike[str]) -> None:
+def plot_error_angles(angle_map: Any, path: str | os.PathLike[str]) -> None:
     """Like the seed paper's Figs. 7-9: mean pose error over a grid of two angles.
 
     Top row position error (mm), bottom row orientation error (mrad); left at the lowest,

@@ -17,10 +17,7 @@ from hexcal.core.linalg import RANK_RTOL
 from hexcal.estimation.problem import identification_residuals
 from hexcal.estimation.registry import ESTIMATORS
 from hexcal.report import figures_report as fig
-from hexcal.report.html_pages import identification_page, tables_page, validation_page
-
-#: Page builders by report kind.
-PAGES = {"identify": identification_page, "validate": validation_page, "tables": tables_page}
+from hexcal.report.registry import render
 
 
 def _pose_rms(geometry: Any, data: Any) -> np.ndarray:
@@ -53,7 +50,7 @@ def identification_report(
         figures["workspace"] = fig.svg(fig.workspace_poses(data.poses, result.start.workspace))
     name = result.start.name or "geometry"
     return {
-        "kind": "identify",
+        "kind": "identification",
         "title": title or f"Calibration of {name}",
         "subtitle": (
             f"{summary['poses']} poses, {len(summary['names'])} parameters, estimator {summary['method']}"
@@ -75,7 +72,7 @@ def validation_report(
         "distributions": fig.svg(fig.validation_distributions(dicts)),
     }
     return {
-        "kind": "validate",
+        "kind": "validation",
         "title": title or "Validation on held-out measurements",
         "subtitle": f"{len(first['ids'])} held-out poses",
         "results": dicts,
@@ -86,4 +83,4 @@ def validation_report(
 
 def render_html(report: Mapping[str, Any]) -> str:
     """The HTML page of a report mapping (its ``kind`` picks the page)."""
-    return PAGES[report.get("kind", "tables")](report)
+    return render(report.get("kind", "paper"), report, "html")

@@ -1,14 +1,12 @@
-"""Summaries and text reports of hexcal's results."""
+"""Text renderers of calibration results: identification report, validation, the paper's
+Table I and the Monte Carlo study table. Each renders a plain dictionary (see
+:mod:`hexcal.report.convert`); standard library only at import.
+"""
 
 from __future__ import annotations
 
+import math
 from typing import Any
-
-import numpy as np
-from numpy.typing import NDArray
-
-from hexcal.estimation.result import IdentificationResult
-from hexcal.simulation.campaign import PaperExperiment
 
 #: The seed paper's Table I (mean absolute parameter error, mm) and its validation claims.
 PAPER_TABLE1 = {"before": 2.6652, "interior": 0.7236, "boundary": 0.3752}
@@ -16,18 +14,6 @@ PAPER_VALIDATION = {
     "before": {"position": "about 15 mm", "orientation": "about 0.05 rad"},
     "after": {"position": "below 0.03 mm", "orientation": "below 3e-6 rad"},
 }
-
-
-def _pose_error_stats(errors: dict[str, NDArray[np.float64]]) -> dict[str, float]:
-    """Per-trial max averaged over trials, and RMS over all poses of all trials."""
-    out: dict[str, float] = {}
-    for key in ("position", "orientation"):
-        e = errors[key]
-        out[f"{key}_max"] = float(np.nanmean(np.nanmax(e, axis=1)))
-        out[f"{key}_rms"] = float(np.sqrt(np.nanmean(e**2)))
-        out[f"{key}_max_worst"] = float(np.nanmax(e))
-    return out
-
 
 #: Labels of the rows of ``hexcal paper``.
 ROW_LABELS = {
@@ -38,47 +24,24 @@ ROW_LABELS = {
     "selected_ml": "15 optimally selected poses, max. likelihood",
 }
 
+#: Correlations above this magnitude are listed in the report.
+CORRELATION_REPORT = 0.9
 
-def paper_summary(experiment: PaperExperiment, **meta: Any) -> dict[str, Any]:
-    """The Table I reproduction as a JSON-ready mapping (see ``hexcal paper``).
+#: A scaled singular value below this fraction of the largest draws an identifiability
+#: warning (the parameter combination is determined ~1e4 times worse than the best).
+WEAK_SINGULAR_VALUE = 1e-4
 
-    Every row (``interior``, ``boundary`` and any extra rows) has its mean absolute
-    parameter error (mm) as a top-level number, its standard deviation over trials in
-    ``std``, and, under ``bound``, the Cramér–Rao bound of that error and the
-    efficiency (error / bound).
-    """
-    errors = experiment.mean_abs_errors()
-    summary: dict[str, Any] = dict(meta)
-    bounds = {}
-    for row in errors:
-        b = experiment.bound_of(row)
-        if b is not None:
-            bound = float(np.mean(b))
-            bounds[row] = {"bound": bound, "efficiency": float(np.nanmean(errors[row])) / bound}
-    summary.update(
-        {
-            "trials": experiment.trials,
-            "method": experiment.method,
-            **{row: float(np.nanmean(values)) for row, values in errors.items()},
-            "rows": {row: ROW_LABELS.get(row, row) for row in errors},
-            "std": {k: float(np.nanstd(v)) for k, v in errors.items()},
-            "bound": bounds,
-            "failures": experiment.failures,
-            "paper": dict(PAPER_TABLE1),
-            "validation": {
-                "before": _pose_error_stats(experiment.validation_before),
-                "after": _pose_error_stats(experiment.validation_after),
-                "paper": PAPER_VALIDATION,
-                "statistics": "max: per-trial maximum over the validation poses, averaged over "
-                "trials; rms: over all validation poses of all trials; max_worst: over all",
-            },
-        }
-    )
-    return summary
+#: What each estimator minimises, for the report.
+METHOD_DESCRIPTIONS = {
+    "ml": "maximum likelihood (errors in variables)",
+    "gls": "generalised least squares (propagated pose covariance)",
+    "length": "least squares on leg lengths",
+    "paper": "least squares on squared leg lengths (the seed paper's eq. 3)",
+}
 
 
-def format_paper_summary(summary: dict[str, Any]) -> str:
-    """Text table of :func:`paper_summary` beside the paper's figures."""
+def paper_text(summary: dict[str, Any]) -> str:
+    """Text table of a Table I summary (:func:`hexcal.report.paper_summary`) beside the paper."""
     t = summary["trials"]
     lines = [
         f"Table I: mean absolute error of the 42 parameters (mm), {t} trials; "
@@ -115,106 +78,76 @@ def format_paper_summary(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-# -- identification ------------------------------------------------------------------
+def study_text(rows: list[dict[str, Any]]) -> str:
+    """Text table of a study: the ``StudyCell.row()`` dictionaries, one line each.
 
-#: Correlations above this magnitude are listed in the report.
-CORRELATION_REPORT = 0.9
-
-#: A scaled singular value below this fraction of the largest draws an identifiability
-#: warning (the parameter combination is determined ~1e4 times worse than the best).
-WEAK_SINGULAR_VALUE = 1e-4
-
-
-def identification_summary(
-    result: IdentificationResult,
-    outliers: tuple[str, ...] = (),
-    flagged: tuple[str, ...] = (),
-) -> dict[str, Any]:
-    """Machine-readable form of an identification (the ``--json`` file)."""
-    return {
-        "method": result.method,
-        "poses": result.n_poses,
-        "parameters": result.parameters,
-        "start": dict(zip(result.names, result.start_values.tolist(), strict=True)),
-        "stderr": result.standard_errors,
-        "rank": result.rank,
-        "n_parameters": len(result.names),
-        "singular_values": result.singular_values.tolist(),
-        "leg_rms_before": result.leg_rms_before,
-        "leg_rms_after": result.leg_rms_after,
-        "rms_before": result.rms_before,
-        "rms_after": result.rms_after,
-        "cost": result.cost,
-        "iterations": result.njev,
-        "function_evaluations": result.nfev,
-        "status": result.status,
-        "message": result.message,
-        "outliers": list(outliers),
-        "flagged": list(flagged),
-        "ids": list(result.ids),
-    }
+    >>> row = {"strategy": "corners", "poses": 15, "noise": "x1", "method": "ml", "error_mean": 0.3,
+    ...        "error_std": 0.1, "bound": 0.25, "efficiency": 1.2, "position_rms": 0.01,
+    ...        "orientation_rms": 2e-6}
+    >>> print(study_text([row]).splitlines()[-1])
+      corners       15  x1        ml          0.3000  0.1000  0.2500  1.20          0.01         2e-06
+    """
+    head = (
+        f"  {'strategy':<10}{'poses':>6}  {'noise':<10}{'method':<8}{'error mm':>10}{'std':>8}"
+        f"{'bound':>8}{'eff.':>6}{'val. pos rms':>14}{'val. ang rms':>14}"
+    )
+    lines = ["Mean absolute parameter error over the trials, its Cramér–Rao bound and validation", head]
+    for r in rows:
+        lines.append(
+            f"  {r['strategy']:<10}{r['poses']:>6}  {r['noise']:<10}{r['method']:<8}{r['error_mean']:>10.4f}"
+            f"{r['error_std']:>8.4f}{r['bound']:>8.4f}{r['efficiency']:>6.2f}"
+            f"{r['position_rms']:>14.4g}{r['orientation_rms']:>14.3g}"
+        )
+    return "\n".join(lines)
 
 
-def _weak_combinations(result: IdentificationResult, count: int = 3) -> list[tuple[float, str]]:
-    """The smallest scaled singular values and the parameter combinations they belong to."""
-    out = []
-    sv = result.singular_values
-    for k in range(min(count, sv.size)):
-        vec = result.singular_vectors[-1 - k]
-        order = np.argsort(-np.abs(vec))[:4]
-        combo = " ".join(f"{vec[i]:+.2f}·{result.names[i]}" for i in order if abs(vec[i]) >= 0.05)
-        out.append((float(sv[-1 - k] / sv[0]), combo))
-    return out
-
-
-def format_identification_report(
-    result: IdentificationResult,
-    outliers: tuple[str, ...] = (),
-    flagged: tuple[str, ...] = (),
-    max_correlations: int = 10,
-) -> str:
-    """Text report of an identification, in the spirit of lmfit's ``fit_report``."""
-    unit = {"length": "mm", "paper": "mm²"}.get(result.method, "whitened, 1")
-    n = len(result.names)
-    m = result.n_poses
-    described = {
-        "ml": "maximum likelihood (errors in variables)",
-        "gls": "generalised least squares (propagated pose covariance)",
-        "length": "least squares on leg lengths",
-        "paper": "least squares on squared leg lengths (the seed paper's eq. 3)",
-    }
+def _fit_statistics(data: dict[str, Any], unit: str, outliers: list[str]) -> list[str]:
+    method = data["method"]
+    n = data["n_parameters"]
     lines = [
         "[[Fit statistics]]",
-        f"    method              {result.method}: {described.get(result.method, result.method)}",
+        f"    method              {method}: {METHOD_DESCRIPTIONS.get(method, method)}",
         f"    residual unit       {unit}",
-        f"    poses               {m}" + (f" (outliers removed: {', '.join(outliers)})" if outliers else ""),
+        f"    poses               {data['poses']}"
+        + (f" (outliers removed: {', '.join(outliers)})" if outliers else ""),
         f"    parameters          {n} varied",
-        f"    degrees of freedom  {result.dof}",
-        f"    leg RMS before      {result.leg_rms_before:.6g} mm",
-        f"    leg RMS after       {result.leg_rms_after:.6g} mm",
-        f"    cost                {result.cost:.6g}",
+        f"    degrees of freedom  {data['dof']}",
+        f"    leg RMS before      {data['leg_rms_before']:.6g} mm",
+        f"    leg RMS after       {data['leg_rms_after']:.6g} mm",
+        f"    cost                {data['cost']:.6g}",
         (
-            f"    reduced chi-square  {result.reduced_chi2:.4g}"
-            if result.method in ("ml", "gls")
-            else f"    residual std dev    {np.sqrt(result.reduced_chi2):.4g} {unit}"
+            f"    reduced chi-square  {data['reduced_chi2']:.4g}"
+            if method in ("ml", "gls")
+            else f"    residual std dev    {math.sqrt(data['reduced_chi2']):.4g} {unit}"
         ),
-        f"    iterations          {result.njev} (function evaluations {result.nfev})",
-        f"    status              {result.status}: {result.message}",
-        f"    rank                {result.rank} of {n}",
+        f"    iterations          {data['iterations']} (function evaluations {data['function_evaluations']})",
+        f"    status              {data['status']}: {data['message']}",
+        f"    rank                {data['rank']} of {n}",
     ]
-    if result.noise is not None:
-        lines.append(f"    noise model         {result.noise.describe()}")
-        if result.method in ("ml", "gls") and not 0.5 < result.reduced_chi2 < 2.0:
+    if data["noise"] is not None:
+        lines.append(f"    noise model         {data['noise']}")
+        if method in ("ml", "gls") and not 0.5 < data["reduced_chi2"] < 2.0:
             lines.append(
                 "    warning: the reduced chi-square is far from 1: the noise model does not describe "
                 "these data (give the instrument's noise with --noise)"
             )
-    bound = result.bound
+    return lines
+
+
+def identification_text(data: dict[str, Any]) -> str:
+    """Text report of an identification, in the spirit of lmfit's ``fit_report``.
+
+    ``data`` is :func:`hexcal.report.identification_report_dict` of the result.
+    """
+    unit = {"length": "mm", "paper": "mm²"}.get(data["method"], "whitened, 1")
+    names = list(data["parameters"])
+    n = len(names)
+    lines = _fit_statistics(data, unit, data["outliers"])
+    bound = data["bound"]
     header = f"    {'name':<8}{'nominal':>14}{'identified':>14}{'change':>12}{'stderr':>12}"
     lines += ["[[Parameters]]", header + (f"{'CR bound':>12}" if bound is not None else "")]
-    for k, (name, start, value, err) in enumerate(
-        zip(result.names, result.start_values, result.values, result.stderr, strict=True)
-    ):
+    for k, name in enumerate(names):
+        start, value, err = data["start"][name], data["parameters"][name], data["stderr_values"][k]
         row = f"    {name:<8}{start:>14.6f}{value:>14.6f}{value - start:>+12.6f}{err:>12.6f}"
         lines.append(row + (f"{bound[k]:>12.6f}" if bound is not None else ""))
     if bound is not None:
@@ -222,27 +155,24 @@ def format_identification_report(
             "    (stderr: from the fit; CR bound: Cramér–Rao σ of any unbiased estimator under the "
             "noise model)"
         )
-    corr = result.correlation
-    iu = np.triu_indices(n, 1)
-    strong = np.argsort(-np.abs(corr[iu]))[:max_correlations]
-    lines.append(f"[[Correlations]] (|C| > {CORRELATION_REPORT:g}, strongest {max_correlations})")
+    most = data["max_correlations"]
+    lines.append(f"[[Correlations]] (|C| > {CORRELATION_REPORT:g}, strongest {most})")
     listed = 0
-    for k in strong:
-        c = corr[iu[0][k], iu[1][k]]
+    for first, second, c in data["correlations"]:
         if abs(c) < CORRELATION_REPORT:
             break
-        lines.append(f"    C({result.names[iu[0][k]]}, {result.names[iu[1][k]]}) = {c:+.4f}")
+        lines.append(f"    C({first}, {second}) = {c:+.4f}")
         listed += 1
     if not listed:
         lines.append("    none")
     lines.append("[[Identifiability]]")
-    sv = result.singular_values
+    sv = data["singular_values"]
     lines.append(
-        f"    numerical rank {result.rank} of {n}; condition number of the column-scaled Jacobian "
+        f"    numerical rank {data['rank']} of {n}; condition number of the column-scaled Jacobian "
         f"{sv[0] / sv[-1]:.3g}"
     )
     lines.append("    smallest scaled singular values (σ/σmax) and their parameter combinations:")
-    for ratio, combo in _weak_combinations(result):
+    for ratio, combo in data["weak"]:
         mark = "  WEAK" if ratio < WEAK_SINGULAR_VALUE else ""
         lines.append(f"      {ratio:.3g}{mark}: {combo}")
     if sv[-1] / sv[0] < WEAK_SINGULAR_VALUE:
@@ -251,6 +181,7 @@ def format_identification_report(
             "add poses with larger rotations or fix parameters (--fix)"
         )
     lines.append("[[Pose check]]")
+    flagged = data["flagged"]
     if flagged:
         lines.append(
             f"    warning: implausible residuals at pose(s) {', '.join(flagged)}: a gross measurement "
@@ -261,8 +192,15 @@ def format_identification_report(
     return "\n".join(lines)
 
 
-def format_validation(calibrated: dict[str, float], nominal: dict[str, float] | None = None) -> str:
-    """Side-by-side table of validation summaries."""
+def validation_text(data: dict[str, Any]) -> str:
+    """Side-by-side table of validation summaries (:func:`hexcal.report.validation_dict`).
+
+    >>> s = dict(poses=3, leg_rms=0.01, leg_max=0.02, position_rms=0.1, position_max=0.2,
+    ...          orientation_rms=1e-5, orientation_max=2e-5)
+    >>> print(validation_text({"calibrated": s, "nominal": None}).splitlines()[4])
+        position error RMS (mm)              0.1
+    """
+    calibrated, nominal = data["calibrated"], data.get("nominal")
     cols = [("calibrated", calibrated)] + ([("nominal", nominal)] if nominal else [])
     lines = [f"Validation on {calibrated['poses']} held-out pose(s)"]
     lines.append(f"    {'':<26}" + "".join(f"{name:>14}" for name, _ in cols))
@@ -277,3 +215,34 @@ def format_validation(calibrated: dict[str, float], nominal: dict[str, float] | 
     for label, key in rows:
         lines.append(f"    {label:<26}" + "".join(f"{d[key]:>14.4g}" for _, d in cols))
     return "\n".join(lines)
+
+
+# -- the former entry points, over the dictionaries -------------------------------------
+
+
+def format_paper_summary(summary: dict[str, Any]) -> str:
+    """Text table of :func:`hexcal.report.paper_summary` (same as :func:`paper_text`)."""
+    return paper_text(summary)
+
+
+def format_validation(calibrated: dict[str, float], nominal: dict[str, float] | None = None) -> str:
+    """Side-by-side table of validation summaries (``ValidationResult.summary()``)."""
+    return validation_text({"calibrated": calibrated, "nominal": nominal})
+
+
+def identification_summary(
+    result: Any, outliers: tuple[str, ...] = (), flagged: tuple[str, ...] = ()
+) -> dict[str, Any]:
+    """Machine-readable form of an identification (:func:`hexcal.report.identification_dict`)."""
+    from hexcal.report.convert import identification_dict
+
+    return identification_dict(result, outliers, flagged)
+
+
+def format_identification_report(
+    result: Any, outliers: tuple[str, ...] = (), flagged: tuple[str, ...] = (), max_correlations: int = 10
+) -> str:
+    """Text report of an identification result (:func:`identification_text` of its dict)."""
+    from hexcal.report.convert import identification_report_dict
+
+    return identification_text(identification_report_dict(result, outliers, flagged, max_correlations))

@@ -1,0 +1,202 @@
+"""Calibration subcommands of ``hexcal``: ``identify``, ``validate``, ``compensate`` and
+``synthesize``.
+
+Imports only the standard library and :mod:`hexcal.cli.common` at its top; each command
+imports the library parts it needs when it runs, calls the library and renders the result
+through :mod:`hexcal.report`.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from hexcal.cli.common import (
+    EULER_HELP,
+    GEOMETRY_HELP,
+    CommandError,
+    check_outputs,
+    fit_mask,
+    id_list,
+    inputs_record,
+    load_geometry,
+    noise_from_args,
+    noise_options,
+    parse_noise,
+    warn,
+)
+
+
+def cmd_identify(args: argparse.Namespace) -> None:
+    """Identify the parameters from a measurement file; write the calibrated geometry."""
+    from hexcal.estimation import estimate
+    from hexcal.io import atomic_write, read_measurements, save_geometry
+    from hexcal.report import identification_dict, identification_report_dict, render
+
+    check_outputs(args.out, args.report, args.json, args.html)
+    nominal = load_geometry(args.geometry, args.euler)
+    data = read_measurements(args.data, nominal.euler)
+    noise = noise_from_args(args)
+    mask = fit_mask(args.fit, args.fix or (), option=None)
+    # the pose check runs on the generalised least-squares fit (its whitened deletion statistic
+    # follows a known F distribution); --robust wraps the chosen estimator itself
+    result = estimate(nominal, data, args.method, mask, noise, robust=args.robust)
+    outliers, flagged = result.outliers, result.flagged
+    text = render("identification", identification_report_dict(result, outliers, flagged))
+    calibration = result.calibration_metadata()
+    calibration["data"] = str(args.data)
+    calibration["outliers"] = list(outliers)
+    name = f"{nominal.name}-calibrated" if nominal.name else "calibrated"
+    save_geometry(result.geometry.replace(name=name, calibration=calibration), args.out)
+    if args.report:
+        with atomic_write(args.report) as fh:
+            fh.write(text + "\n")
+    if args.json:
+        with atomic_write(args.json) as fh:
+            fh.write(render("identification", identification_dict(result, outliers, flagged), "json"))
+    if args.html:
+        from hexcal.report import identification_report, render_html
+
+        inputs = inputs_record({"geometry": args.geometry, "data": args.data}, args)
+        with atomic_write(args.html) as fh:
+            fh.write(render_html(identification_report(result, data, inputs)))
+    print(text)
+    print(f"wrote the calibrated geometry to {args.out}")
+
+
+def cmd_validate(args: argparse.Namespace) -> None:
+    """Pose errors of a geometry (and optionally the nominal one) on held-out measurements."""
+    from hexcal.estimation import validate
+    from hexcal.io import read_measurements, write_table
+    from hexcal.report import render, validation_dict, validation_table
+
+    check_outputs(args.out, args.html)
+    geometry = load_geometry(args.geometry, args.euler)
+    data = read_measurements(args.data, geometry.euler)
+    calibrated = validate(geometry, data)
+    nominal = validate(load_geometry(args.nominal, geometry.euler), data) if args.nominal else None
+    print(render("validation", validation_dict(calibrated, nominal)))
+    if args.out:
+        columns, rows, ids, comment = validation_table(calibrated, nominal, data.ids)
+        write_table(args.out, columns, rows, ids, comment=comment)
+        print(f"wrote the per-pose table to {args.out}")
+    if args.html:
+        from hexcal.io import atomic_write
+        from hexcal.report import render_html, validation_report
+
+        results = {"calibrated": calibrated} | ({"nominal": nominal} if nominal else {})
+        files = {"geometry": args.geometry, "data": args.data} | (
+            {"nominal": args.nominal} if args.nominal else {}
+        )
+        with atomic_write(args.html) as fh:
+            fh.write(render_html(validation_report(results, inputs_record(files, args))))
+        print(f"wrote the HTML report to {args.html}")
+
+
+def cmd_compensate(args: argparse.Namespace) -> None:
+    """Leg commands that bring the calibrated machine to target poses."""
+    from hexcal.core import compensate
+    from hexcal.io import read_poses, write_legs, write_poses
+
+    check_outputs(args.out, args.corrected_poses)
+    if args.corrected_poses and not args.nominal:
+        raise CommandError("--corrected-poses needs --nominal (the controller's geometry)")
+    geometry = load_geometry(args.geometry, args.euler)
+    targets, ids = read_poses(args.poses, geometry.euler)
+    nominal = load_geometry(args.nominal, geometry.euler) if args.nominal else None
+    comp = compensate(geometry, targets, ids, nominal)
+    bad = comp.infeasible_ids
+    if bad and not args.skip_infeasible:
+        raise CommandError(
+            f"{len(bad)} target(s) outside the leg length limits: {id_list(list(bad))} "
+            "(nothing written; --skip-infeasible writes the others)"
+        )
+    keep = comp.feasible
+    kept_ids = [i for i, k in zip(ids, keep, strict=True) if k]
+    write_legs(args.out, comp.lengths[keep], comp.readings[keep], kept_ids)
+    if args.corrected_poses and comp.corrected_poses is not None:
+        write_poses(args.corrected_poses, comp.corrected_poses[keep], kept_ids)
+        print(f"wrote corrected target poses for the nominal controller to {args.corrected_poses}")
+    if bad:
+        warn(f"hexcal: warning: skipped {len(bad)} infeasible target(s): {id_list(list(bad))}")
+    print(f"wrote leg commands for {len(kept_ids)} target(s) to {args.out}")
+
+
+def cmd_synthesize(args: argparse.Namespace) -> None:
+    """A simulated measurement file of a known machine."""
+    from hexcal.io import read_poses, write_measurements
+    from hexcal.simulation import simulate_measurements
+
+    check_outputs(args.out)
+    nominal = load_geometry(args.nominal, args.euler)
+    true = load_geometry(args.true, nominal.euler)
+    poses, ids = read_poses(args.poses, nominal.euler)
+    noise = parse_noise(args.noise, args.noise_dist)
+    data = simulate_measurements(nominal, true, poses, noise, args.seed, ids)
+    write_measurements(
+        args.out,
+        data,
+        nominal.euler,
+        args.orientation,
+        comment=f"simulated: nominal {args.nominal}, true {args.true}, seed {args.seed}, noise {noise}",
+    )
+    print(f"wrote {len(data)} simulated measurement(s) to {args.out}")
+
+
+def register(sub: Any) -> None:
+    """Add ``identify``, ``validate``, ``compensate`` and ``synthesize`` to the subparsers."""
+    p = sub.add_parser("identify", help="identify the kinematic parameters from a measurement file")
+    p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
+    p.add_argument("--data", required=True, help="measurement CSV file (dl1..dl6 and the measured pose)")
+    p.add_argument("--out", required=True, help="calibrated geometry YAML file to write")
+    from hexcal.estimation.registry import DEFAULT_ESTIMATOR, ESTIMATORS  # names only: no numpy
+
+    p.add_argument(
+        "--method",
+        choices=tuple(ESTIMATORS),
+        default=DEFAULT_ESTIMATOR,
+        help="estimator: maximum likelihood (default), generalised least squares, least squares "
+        "on leg lengths, or the seed paper's squared lengths (eq. 3)",
+    )
+    noise_options(p)
+    p.add_argument("--fit", default="joints,l0", help="parameter groups: joints, base, platform, l0, gains")
+    p.add_argument("--fix", nargs="+", metavar="NAME", help="parameters to hold, e.g. u1.z l0_1")
+    p.add_argument("--robust", action="store_true", help="find and leave out outlying poses")
+    p.add_argument("--euler", help=EULER_HELP)
+    p.add_argument("--report", help="save the report as text")
+    p.add_argument("--json", help="save the result as JSON")
+    p.add_argument(
+        "--html", metavar="FILE", help="save a self-contained HTML report (verdict, tables, figures)"
+    )
+    p.set_defaults(func=cmd_identify)
+
+    p = sub.add_parser("validate", help="pose errors of a geometry on held-out measurements")
+    p.add_argument("--geometry", required=True, help=f"calibrated {GEOMETRY_HELP}")
+    p.add_argument("--data", required=True, help="held-out measurement CSV file")
+    p.add_argument("--nominal", help="also validate this geometry, side by side")
+    p.add_argument("--out", help="per-pose table CSV file")
+    p.add_argument("--html", metavar="FILE", help="save a self-contained HTML report with figures")
+    p.add_argument("--euler", help=EULER_HELP)
+    p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser("compensate", help="leg commands that bring the real machine to targets")
+    p.add_argument("--geometry", required=True, help=f"calibrated {GEOMETRY_HELP}")
+    p.add_argument("--poses", required=True, help="target pose CSV file")
+    p.add_argument("--out", required=True, help="leg CSV file to write (l1..l6, dl1..dl6)")
+    p.add_argument("--nominal", help="the controller's (nominal) geometry")
+    p.add_argument("--corrected-poses", help="pose CSV file of corrected targets for the nominal controller")
+    p.add_argument("--skip-infeasible", action="store_true", help="write the feasible targets only")
+    p.add_argument("--euler", help=EULER_HELP)
+    p.set_defaults(func=cmd_compensate)
+
+    p = sub.add_parser("synthesize", help="simulate a measurement file of a known machine (for rehearsal)")
+    p.add_argument("--nominal", required=True, help=f"the controller's {GEOMETRY_HELP}")
+    p.add_argument("--true", required=True, help=f"the simulated real machine: {GEOMETRY_HELP}")
+    p.add_argument("--poses", required=True, help="commanded pose CSV file")
+    p.add_argument("--out", required=True, help="measurement CSV file to write")
+    p.add_argument("--noise", help="noise half-widths, e.g. leg=0.01,pos=0.025,ang=0.001 (the paper's)")
+    p.add_argument("--noise-dist", choices=("uniform", "normal"), default="uniform")
+    p.add_argument("--orientation", choices=("rad", "deg", "quat"), default="rad")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--euler", help="Euler sequence of the angles (default: the nominal geometry's)")
+    p.set_defaults(func=cmd_synthesize)

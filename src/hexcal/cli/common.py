@@ -1,0 +1,339 @@
+"""Helpers shared by the ``hexcal`` subcommands: geometry loading with ``--euler``, noise
+and id-list options, the ``--candidates`` spec and its feasibility filter, output-path
+checks, warnings and progress lines.
+
+This module imports only the standard library and :mod:`hexcal.errors` at its top, so
+that building the parser (``hexcal --help``) costs no numpy; the helpers that need the
+library import it when they run. Every failure of an option raises :class:`CommandError`,
+which ``hexcal.cli.main`` prints as one line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+from hexcal.errors import UsageError
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from hexcal.core import Geometry, NoiseModel
+
+#: Names of the built-in geometries (``hexcal.core.PRESETS``), spelled here so that the
+#: parser is built without importing numpy; ``tests/test_cli.py`` checks they agree.
+PRESET_NAMES = ("paper-hmt", "paper-hmt-true")
+
+#: Help of every ``--geometry`` option.
+GEOMETRY_HELP = f"geometry YAML file or preset ({', '.join(PRESET_NAMES)})"
+
+#: Help of ``--euler``.
+EULER_HELP = "Euler sequence of the angles (default: the geometry's)"
+
+#: Help of the planning commands' ``--noise``.
+NOISE_HELP = "noise half-widths (uniform) or sigmas (normal), e.g. leg=0.01,pos=0.025,ang=0.001"
+
+
+class CommandError(UsageError):
+    """A failure of a command's options to report as one line."""
+
+
+def id_list(ids: Sequence[str], most: int = 20) -> str:
+    """``ids`` joined by commas, cut after ``most`` with the total count.
+
+    >>> id_list(["p1", "p2", "p3"], most=2)
+    'p1, p2 ... (3 in all)'
+    """
+    return ", ".join(ids[:most]) + (f" ... ({len(ids)} in all)" if len(ids) > most else "")
+
+
+def load_geometry(spec: str, euler: str | None = None) -> Geometry:
+    """The geometry of a YAML file or preset, with the Euler sequence of ``--euler``."""
+    from hexcal.io import load_geometry as load
+
+    geometry = load(spec)
+    return geometry.replace(euler=euler) if euler else geometry
+
+
+def parse_noise(text: str | None, distribution: str = "uniform") -> NoiseModel:
+    """Parse ``leg=0.01,pos=0.025,ang=0.001`` (any subset; others keep the paper's values).
+
+    >>> parse_noise("leg=0.02").leg
+    0.02
+    """
+    from hexcal.core import NoiseModel
+
+    keys = {"leg": "leg", "pos": "position", "ang": "orientation"}
+    values: dict[str, float] = {}
+    for item in (text or "").split(","):
+        item = item.strip()
+        if not item:
+            continue
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or key not in keys:
+            raise CommandError(f"--noise: cannot read {item!r}; write e.g. leg=0.01,pos=0.025,ang=0.001")
+        try:
+            number = float(value)
+        except ValueError:
+            raise CommandError(f"--noise: {key}={value!r} is not a number") from None
+        if not math.isfinite(number) or number < 0:
+            raise CommandError(f"--noise: {key} must be a finite value >= 0, got {value}")
+        values[keys[key]] = number
+    try:
+        return NoiseModel(distribution=distribution, **values)
+    except ValueError as exc:
+        raise CommandError(f"--noise: {exc}") from None
+
+
+def noise_options(p: argparse.ArgumentParser) -> None:
+    """Add ``--noise``, ``--noise-dist`` and ``--pose-covariance`` to a subcommand."""
+    p.add_argument(
+        "--noise",
+        help="measurement noise: leg=MM,pos=MM,ang=RAD (default the seed paper's "
+        "leg=0.01,pos=0.025,ang=0.001)",
+    )
+    p.add_argument(
+        "--noise-dist",
+        choices=("uniform", "normal"),
+        default="uniform",
+        help="uniform: the values are half-widths a (σ = a/√3); normal: they are σ",
+    )
+    p.add_argument(
+        "--pose-covariance",
+        metavar="FILE",
+        help="full 6x6 pose covariance (mm², mm·rad, rad²; 6 rows of 6 numbers), replacing pos and ang",
+    )
+
+
+def noise_from_args(args: argparse.Namespace) -> NoiseModel:
+    """The noise model of ``--noise``, ``--noise-dist`` and ``--pose-covariance``."""
+    noise = parse_noise(args.noise, args.noise_dist)
+    path = getattr(args, "pose_covariance", None)
+    if path:
+        from hexcal.core import NoiseModel
+        from hexcal.io import read_matrix
+
+        try:
+            noise = NoiseModel(
+                leg=noise.leg, distribution=noise.distribution, pose_covariance=read_matrix(path, (6, 6))
+            )
+        except ValueError as exc:
+            raise CommandError(f"{path}: {exc}") from None
+    return noise
+
+
+def choice(value: str, allowed: Sequence[str], option: str) -> str:
+    """``value`` if it is one of ``allowed``, else a :class:`CommandError` naming ``option``.
+
+    >>> choice("A", ("D", "A"), "--criterion")
+    'A'
+    """
+    if value not in allowed:
+        raise CommandError(f"{option}: unknown {value!r}; choose from {', '.join(allowed)}")
+    return value
+
+
+def fit_mask(fit: str, fix: Sequence[str] = (), option: str | None = "--fit") -> Any:
+    """The parameter mask (48,) of ``--fit`` groups and ``--fix`` names."""
+    from hexcal.core import select_parameters
+
+    try:
+        return select_parameters(fit, fix)
+    except ValueError as exc:
+        raise CommandError(f"{option}: {exc}" if option else str(exc)) from None
+
+
+def int_list(text: str, option: str) -> list[int]:
+    """Positive integers of a comma-separated option.
+
+    >>> int_list("7,15", "--poses")
+    [7, 15]
+    """
+    try:
+        values = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise CommandError(f"{option}: {text!r} is not a comma-separated list of integers") from None
+    if not values or min(values) < 1:
+        raise CommandError(f"{option}: give positive integers, got {text!r}")
+    return values
+
+
+def check_outputs(*paths: str | None) -> None:
+    """Fail before any work when an output's folder does not exist."""
+    from pathlib import Path
+
+    for path in paths:
+        if path is None:
+            continue
+        folder = Path(path).parent
+        if not folder.is_dir():
+            raise CommandError(f"{path}: the folder {folder} does not exist")
+        if Path(path).is_dir():
+            raise CommandError(f"{path}: is a folder, not a file")
+
+
+def output_folder(path: str | None) -> Path | None:
+    """The ``--out`` folder of a study (None without ``--out``); fails if it is a file."""
+    from pathlib import Path
+
+    out = Path(path) if path else None
+    if out is not None and out.exists() and not out.is_dir():
+        raise CommandError(f"--out {out}: exists and is not a folder")
+    return out
+
+
+def check_trials(trials: int) -> None:
+    """Fail unless ``--trials`` is at least 1."""
+    if trials < 1:
+        raise CommandError(f"--trials must be at least 1, got {trials}")
+
+
+def warn(message: str) -> None:
+    """Print ``message`` on stderr (the caller writes the ``hexcal: warning:`` prefix)."""
+    print(message, file=sys.stderr)
+
+
+#: ``--candidates`` kinds and the prefixes of their pose ids.
+CANDIDATE_PREFIXES = {"corners": "c", "grid": "g", "edges": "e", "random": "r"}
+
+
+def _number(text: str, token: str, low: int) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise CommandError(f"--candidates: {token!r}: {text!r} is not a whole number") from None
+    if value < low:
+        raise CommandError(f"--candidates: {token!r}: the number must be at least {low}")
+    return value
+
+
+def _candidate_kind(token: str, geometry: Any, rng: Any) -> tuple[Any, list[str]]:
+    """Poses and ids of one built-in kind of ``--candidates`` (``grid:3``, ``random:100``...)."""
+    from hexcal.design import candidate_poses
+
+    kind, _, arg = token.partition(":")
+    if kind == "corners" and arg:
+        raise CommandError(f"--candidates: {token!r}: corners take no number")
+    if kind == "random" and not arg:
+        raise CommandError("--candidates: random needs a number, e.g. random:1000")
+    count = _number(arg, token, 1 if kind == "random" else 2) if arg else None
+    if kind in ("grid", "edges") and count is not None and count > 12:
+        raise CommandError(f"--candidates: {token!r}: at most 12 grid levels (12⁶ poses)")
+    try:
+        poses = candidate_poses(geometry, kind, count, rng)
+    except ValueError as exc:
+        raise CommandError(f"--candidates: {token}: {exc}") from None
+    width = len(str(len(poses)))
+    return poses, [f"{CANDIDATE_PREFIXES[kind]}{k:0{width}d}" for k in range(len(poses))]
+
+
+def candidate_spec(spec: str, geometry: Any, seed: int) -> tuple[Any, list[str]]:
+    """Candidate poses and ids of a spec like ``corners+grid:3+random:1000+file.csv``."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from hexcal.io import read_poses
+
+    tokens = [t.strip() for t in spec.split("+") if t.strip()]
+    if not tokens:
+        raise CommandError("--candidates: empty; give corners, grid[:L], edges[:L], random:N or a file")
+    rng = np.random.default_rng(seed)
+    parts = []
+    ids: list[str] = []
+    for token in tokens:
+        if token.partition(":")[0] in CANDIDATE_PREFIXES:
+            poses, new_ids = _candidate_kind(token, geometry, rng)
+            ids += new_ids
+        else:
+            if not Path(token).exists():
+                raise CommandError(
+                    f"--candidates: {token!r} is neither corners, grid[:L], edges[:L], random:N nor a file"
+                )
+            poses, file_ids = read_poses(token, geometry.euler)
+            ids += list(file_ids)
+        parts.append(poses)
+    seen: set[str] = set()
+    for i in ids:
+        if i in seen:
+            raise CommandError(f"--candidates: pose id {i!r} appears twice; give the files distinct ids")
+        seen.add(i)
+    return np.concatenate(parts), ids
+
+
+def feasible_candidates(
+    geometry: Any, poses: Any, ids: list[str], min_distance: float | None
+) -> tuple[Any, list[str], str | None]:
+    """Feasible candidates, their ids, and a warning naming the infeasible ones (or None).
+
+    The warning is printed once the command has succeeded, so that a failure stays one line.
+    """
+    import numpy as np
+
+    from hexcal.design import MIN_SINGULARITY_DISTANCE, check_feasibility
+
+    threshold = MIN_SINGULARITY_DISTANCE if min_distance is None else min_distance
+    if not (math.isfinite(threshold) and threshold >= 0):
+        raise CommandError(f"--min-distance must be a finite value >= 0, got {threshold}")
+    report = check_feasibility(geometry, poses, threshold)
+    keep = np.flatnonzero(report.feasible)
+    if keep.size == 0:
+        raise CommandError(f"no feasible candidate pose: {report.summary()}")
+    warning = None
+    if report.n_infeasible:
+        bad = np.flatnonzero(~report.feasible)
+        detail = "; ".join(f"{ids[k]}: {report.reasons(k)}" for k in bad[:5])
+        more = f" ... ids {id_list([ids[k] for k in bad])}" if bad.size > 5 else ""
+        warning = f"hexcal: warning: candidates: {report.summary()}; never proposed ({detail}{more})"
+    return poses[keep], [ids[k] for k in keep], warning
+
+
+class Progress:
+    """Progress lines on stderr, about every 10 % (and at the end)."""
+
+    def __init__(self, label: str, quiet: bool = False) -> None:
+        self.label, self.quiet, self.last, self.start = label, quiet, -1, time.perf_counter()
+
+    def __call__(self, done: int, total: int) -> None:
+        step = int(10 * done / total)
+        if self.quiet or (step == self.last and done < total):
+            return
+        self.last = step
+        elapsed = time.perf_counter() - self.start
+        print(f"  {self.label}: {done}/{total} ({elapsed:.1f} s)", file=sys.stderr, flush=True)
+
+
+def inputs_record(files: dict[str, str | None], args: argparse.Namespace) -> dict[str, Any]:
+    """What makes a report traceable: the input files with their SHA-256 (presets by name),
+    the command's options, hexcal's version and the date."""
+    import datetime
+    import hashlib
+    from importlib.metadata import version
+
+    records = []
+    for role, path in files.items():
+        if path is None:
+            continue
+        if path in PRESET_NAMES:
+            records.append({"role": role, "path": f"preset {path}", "sha256": "-"})
+            continue
+        digest = hashlib.sha256()
+        with open(path, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                digest.update(block)
+        records.append({"role": role, "path": str(path), "sha256": digest.hexdigest()})
+    options = {
+        k: v for k, v in sorted(vars(args).items()) if k not in ("func", "command") and v not in (None, False)
+    }
+    return {
+        "files": records,
+        "command": f"hexcal {args.command}",
+        "options": options,
+        "hexcal version": version("hexcal"),
+        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+    }

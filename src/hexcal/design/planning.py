@@ -1,0 +1,278 @@
+"""Campaign planning as the command line uses it: the A-optimal poses of the boundary grid,
+the poses of the seed paper's strategy, and the predicted accuracy of a pose set beside
+the paper's strategy and random interior poses.
+
+Imports :mod:`hexcal.core`, :mod:`hexcal.estimation` and the rest of :mod:`hexcal.design`
+(through the packages); returns plain arrays or dataclasses with ``to_dict()``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hexcal.core import Geometry, NoiseModel, box_corners, random_interior
+from hexcal.design import (
+    MIN_SINGULARITY_DISTANCE,
+    analyse_poses,
+    candidate_poses,
+    check_feasibility,
+    information_blocks,
+    least_squares_covariance,
+    mean_abs_error,
+    random_subsets,
+    select_poses,
+)
+from hexcal.errors import SelectionError
+
+#: Random pose sets averaged for each comparison strategy.
+COMPARISON_DRAWS = 20
+
+
+def optimal_poses(nominal: Geometry, n: int, noise: NoiseModel, seed: int) -> NDArray[np.float64]:
+    """``n`` A-optimal poses of the workspace boundary grid for the nominal geometry.
+
+    A-optimality minimises the sum of the parameter variances, the criterion closest to
+    the mean absolute parameter error that Table I reports. ``hexcal paper`` and
+    ``hexcal simulate --strategies selected`` measure at these poses.
+
+    Parameters
+    ----------
+    nominal : Geometry
+        Nominal geometry, with a workspace box.
+    n : int
+        Number of poses.
+    noise : NoiseModel
+        Measurement noise the selection weighs the poses with.
+    seed : int
+        Seed of the selection's random tie-breaking.
+
+    Returns
+    -------
+    ndarray, shape (n, 6)
+        Poses (mm, rad) of the feasible boundary grid.
+
+    Examples
+    --------
+    >>> from hexcal.core import NoiseModel, preset
+    >>> optimal_poses(preset("paper-hmt"), 15, NoiseModel(), seed=0).shape
+    (15, 6)
+    """
+    candidates = candidate_poses(nominal, "grid")
+    candidates = candidates[check_feasibility(nominal, candidates).feasible]
+    chosen = select_poses(information_blocks(nominal, candidates, noise), n, "A", rng=seed)
+    return candidates[chosen.indices]
+
+
+def feasible_corners(
+    geometry: Geometry, min_distance: float | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.intp]] | tuple[None, None]:
+    """The feasible corners of the workspace box and their indices among the 64.
+
+    Returns ``(None, None)`` when the geometry has no workspace box.
+
+    Examples
+    --------
+    >>> from hexcal.core import preset
+    >>> corners, index = feasible_corners(preset("paper-hmt"))
+    >>> corners.shape, index[:3].tolist()
+    ((64, 6), [0, 1, 2])
+    """
+    if geometry.workspace is None:
+        return None, None
+    threshold = MIN_SINGULARITY_DISTANCE if min_distance is None else min_distance
+    corners = box_corners(geometry.workspace)
+    index = np.flatnonzero(check_feasibility(geometry, corners, threshold).feasible)
+    return corners[index], index
+
+
+def predicted_error(
+    geometry: Geometry, pose_sets: ArrayLike, noise: NoiseModel, mask: ArrayLike | None = None
+) -> tuple[float, float]:
+    """Mean over pose sets of the predicted mean absolute parameter error (mm).
+
+    Parameters
+    ----------
+    geometry : Geometry
+    pose_sets : array_like, shape (T, n, 6)
+        ``T`` sets of ``n`` poses (mm, rad).
+    noise : NoiseModel
+    mask : array_like of bool, shape (48,), optional
+        Parameters identified (default: joints and l0).
+
+    Returns
+    -------
+    (float, float)
+        Of ``identify`` (method length), and of the Cramér–Rao bound.
+
+    Examples
+    --------
+    >>> from hexcal.core import NoiseModel, preset, workspace_corners
+    >>> geometry = preset("paper-hmt")
+    >>> est, bound = predicted_error(geometry, workspace_corners(geometry)[None, :15], NoiseModel())
+    >>> 0 < bound <= est
+    True
+    """
+    from hexcal.estimation import cramer_rao_covariance
+
+    sets = np.asarray(pose_sets, dtype=float)
+    est = [mean_abs_error(least_squares_covariance(geometry, s, noise, mask), mask) for s in sets]
+    bound = [mean_abs_error(cramer_rao_covariance(geometry, s, noise, mask), mask) for s in sets]
+    return float(np.mean(est)), float(np.mean(bound))
+
+
+@dataclass
+class StrategyComparison:
+    """Predicted mean absolute parameter error (mm) of a pose set beside other strategies.
+
+    ``rows`` maps ``selected``, ``paper`` (random feasible corners, the seed paper's
+    strategy) and ``interior`` (random interior poses) to (estimator, bound); a strategy
+    the geometry does not allow is absent. ``descriptions`` says what each comparison is.
+    """
+
+    n: int
+    rows: dict[str, tuple[float, float]]
+    descriptions: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def gain(self) -> float | None:
+        """Relative reduction of the predicted error, selected against the paper's strategy."""
+        if "paper" not in self.rows:
+            return None
+        return 1 - self.rows["selected"][0] / self.rows["paper"][0]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python form: ``predicted_mean_abs_error_mm`` (as ``hexcal select --json``)
+        and ``comparisons`` (the descriptions)."""
+        return {
+            "predicted_mean_abs_error_mm": {
+                key: {"estimator": est, "bound": bound} for key, (est, bound) in self.rows.items()
+            },
+            "comparisons": dict(self.descriptions),
+        }
+
+
+def compare_strategies(
+    geometry: Geometry,
+    poses: ArrayLike,
+    noise: NoiseModel,
+    mask: ArrayLike | None = None,
+    rng: np.random.Generator | int | None = None,
+    corners: NDArray[np.float64] | None = None,
+    draws: int = COMPARISON_DRAWS,
+) -> StrategyComparison:
+    """Predicted accuracy of ``poses`` beside the seed paper's strategy and random interior poses.
+
+    Parameters
+    ----------
+    geometry : Geometry
+    poses : array_like, shape (n, 6)
+        The selected poses (mm, rad).
+    noise : NoiseModel
+    mask : array_like of bool, shape (48,), optional
+    rng : Generator or int, optional
+        Draws the comparison pose sets: first ``draws`` subsets of the corners, then
+        ``draws * n`` interior poses.
+    corners : ndarray, shape (k, 6), optional
+        Feasible corners for the paper's strategy (compared only if ``n <= k``); the
+        interior comparison needs a workspace box.
+    draws : int
+        Pose sets averaged per comparison.
+
+    Raises
+    ------
+    SelectionError
+        If ``poses`` do not identify all the parameters.
+
+    Examples
+    --------
+    >>> from hexcal.core import NoiseModel, preset
+    >>> geometry = preset("paper-hmt")
+    >>> corners, _ = feasible_corners(geometry)
+    >>> comparison = compare_strategies(geometry, corners[:15], NoiseModel(), rng=0, corners=corners)
+    >>> sorted(comparison.rows)
+    ['interior', 'paper', 'selected']
+    """
+    poses = np.asarray(poses, dtype=float)
+    n = len(poses)
+    rng = np.random.default_rng(rng)
+    analysis = analyse_poses(geometry, poses, noise, mask)
+    if analysis.rank < len(analysis.names):
+        lost = analysis.unidentifiable
+        raise SelectionError(
+            f"the selected poses identify only rank {analysis.rank} of {len(analysis.names)} parameters; "
+            f"lost: {', '.join(lost[:4])}{' ...' if len(lost) > 4 else ''}"
+        )
+    rows = {"selected": (analysis.mean_error_estimator, analysis.mean_error_bound)}
+    descriptions: dict[str, str] = {}
+    if corners is not None and n <= len(corners):
+        sets = corners[random_subsets(len(corners), n, draws, rng)]
+        rows["paper"] = predicted_error(geometry, sets, noise, mask)
+        descriptions["paper"] = f"{n} random corners (the seed paper), mean of {draws} draws"
+    if geometry.workspace is not None:
+        interior = random_interior(geometry.workspace, draws * n, rng).reshape(-1, n, 6)
+        rows["interior"] = predicted_error(geometry, interior, noise, mask)
+        descriptions["interior"] = f"{n} random interior poses, mean of {draws} draws"
+    return StrategyComparison(n, rows, descriptions)
+
+
+@dataclass
+class PoseSelection:
+    """Measurement poses chosen by a strategy, with their predicted accuracy.
+
+    ``strategy`` is ``optimal`` (``selection`` the :class:`hexcal.design.SelectionResult`
+    by ``criterion`` from the ``candidates`` spec) or ``paper`` (random feasible corners;
+    ``selection`` None). ``poses`` (n, 6) in mm and rad, ``ids`` their names, ``label``
+    says what was selected, ``seconds`` the time of the selection.
+    """
+
+    strategy: str
+    n: int
+    seed: int
+    poses: NDArray[np.float64]
+    ids: list[str]
+    label: str
+    seconds: float
+    comparison: StrategyComparison
+    selection: Any | None = None
+    criterion: str | None = None
+    candidates: str = "corners"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python form: the keys of ``hexcal select --json`` (in order), then ``comparisons``,
+        ``label``, ``greedy_text`` and ``value_text`` (criterion values in words, or None).
+
+        Examples
+        --------
+        >>> from hexcal.core import NoiseModel, preset
+        >>> geometry = preset("paper-hmt")
+        >>> corners, _ = feasible_corners(geometry)
+        >>> poses = corners[[0, 9, 18, 27, 36, 45, 54, 63, 5, 12, 23, 30, 41, 50, 58]]
+        >>> comparison = compare_strategies(geometry, poses, NoiseModel(), rng=0)
+        >>> chosen = PoseSelection("paper", 15, 0, poses, ["c00"] * 15, "15 corners", 0.0, comparison)
+        >>> list(chosen.to_dict())[:6]
+        ['strategy', 'criterion', 'n', 'seed', 'candidates', 'ids']
+        """
+        from hexcal.design import describe_value
+
+        r = self.selection
+        return {
+            "strategy": self.strategy,
+            "criterion": self.criterion if r is not None else None,
+            "n": self.n,
+            "seed": self.seed,
+            "candidates": self.candidates if r is not None else "corners",
+            "ids": list(self.ids),
+            "indices": [int(k) for k in r.indices] if r is not None else None,
+            "value": r.value if r is not None else None,
+            "greedy_value": r.greedy_value if r is not None else None,
+            "swaps": r.swaps if r is not None else 0,
+            "seconds": self.seconds,
+            **self.comparison.to_dict(),
+            "label": self.label,
+            "greedy_text": describe_value(r.greedy_value, self.criterion) if r is not None else None,
+            "value_text": describe_value(r.value, self.criterion) if r is not None else None,
+        }

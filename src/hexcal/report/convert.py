@@ -1,0 +1,214 @@
+"""Results as plain dictionaries (JSON-ready), the input of every renderer.
+
+Each ``<thing>_dict(result)`` turns a result object of a lower layer into the mapping that
+the text, JSON and figure renderers read; where the JSON file of a command is that mapping,
+its keys are exactly those of the file. Floats may be NaN or infinite here: the JSON
+renderer writes them as ``null``. Imports numpy and the layers below, by duck typing on the
+results' attributes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hexcal.report.text import PAPER_TABLE1, PAPER_VALIDATION, ROW_LABELS
+
+
+def identification_dict(
+    result: Any, outliers: tuple[str, ...] = (), flagged: tuple[str, ...] = ()
+) -> dict[str, Any]:
+    """Machine-readable form of an identification (the ``hexcal identify --json`` file).
+
+    ``result`` is an :class:`hexcal.estimation.IdentificationResult`.
+    """
+    return {
+        "method": result.method,
+        "poses": result.n_poses,
+        "parameters": result.parameters,
+        "start": dict(zip(result.names, result.start_values.tolist(), strict=True)),
+        "stderr": result.standard_errors,
+        "rank": result.rank,
+        "n_parameters": len(result.names),
+        "singular_values": result.singular_values.tolist(),
+        "leg_rms_before": result.leg_rms_before,
+        "leg_rms_after": result.leg_rms_after,
+        "rms_before": result.rms_before,
+        "rms_after": result.rms_after,
+        "cost": result.cost,
+        "iterations": result.njev,
+        "function_evaluations": result.nfev,
+        "status": result.status,
+        "message": result.message,
+        "outliers": list(outliers),
+        "flagged": list(flagged),
+        "ids": list(result.ids),
+    }
+
+
+def _weak_combinations(result: Any, count: int = 3) -> list[list[Any]]:
+    """The smallest scaled singular values and the parameter combinations they belong to."""
+    out = []
+    sv = result.singular_values
+    for k in range(min(count, sv.size)):
+        vec = result.singular_vectors[-1 - k]
+        order = np.argsort(-np.abs(vec))[:4]
+        combo = " ".join(f"{vec[i]:+.2f}·{result.names[i]}" for i in order if abs(vec[i]) >= 0.05)
+        out.append([float(sv[-1 - k] / sv[0]), combo])
+    return out
+
+
+def identification_report_dict(
+    result: Any,
+    outliers: tuple[str, ...] = (),
+    flagged: tuple[str, ...] = (),
+    max_correlations: int = 10,
+) -> dict[str, Any]:
+    """:func:`identification_dict` with what the text report adds.
+
+    Extra keys: ``dof``, ``reduced_chi2``, ``noise`` (its description, or None),
+    ``stderr_values`` and ``bound`` (lists in the order of ``parameters``; ``bound`` None
+    without a noise model), ``correlations`` (the ``max_correlations`` strongest pairs
+    ``[name, name, value]``) and ``weak`` (``[σ/σmax, combination]`` of the three
+    smallest scaled singular values).
+    """
+    n = len(result.names)
+    corr = result.correlation
+    iu = np.triu_indices(n, 1)
+    strong = np.argsort(-np.abs(corr[iu]))[:max_correlations]
+    correlations = [
+        [result.names[iu[0][k]], result.names[iu[1][k]], float(corr[iu[0][k], iu[1][k]])] for k in strong
+    ]
+    bound = result.bound
+    return {
+        **identification_dict(result, outliers, flagged),
+        "dof": result.dof,
+        "reduced_chi2": float(result.reduced_chi2),
+        "noise": None if result.noise is None else result.noise.describe(),
+        "stderr_values": result.stderr.tolist(),
+        "bound": None if bound is None else np.asarray(bound, dtype=float).tolist(),
+        "max_correlations": max_correlations,
+        "correlations": correlations,
+        "weak": _weak_combinations(result),
+    }
+
+
+def validation_dict(calibrated: Any, nominal: Any | None = None) -> dict[str, Any]:
+    """Summaries of validations (:class:`hexcal.estimation.ValidationResult`), side by side."""
+    return {
+        "calibrated": calibrated.summary(),
+        "nominal": nominal.summary() if nominal is not None else None,
+    }
+
+
+def analysis_dict(analysis: Any, n_test: int) -> dict[str, Any]:
+    """The ``hexcal observability --json`` file of a :class:`hexcal.design.PoseSetAnalysis`.
+
+    ``n_test`` is the number of test poses (0: no ``test_poses`` entry).
+    """
+    out: dict[str, Any] = {
+        "n_poses": analysis.n_poses,
+        "n_parameters": len(analysis.names),
+        "rank": analysis.rank,
+        **analysis.indices.as_dict(),
+        "weighted": analysis.weighted,
+        "unidentifiable": analysis.unidentifiable,
+        "method": analysis.method,
+        "noise": {
+            "leg": analysis.noise.leg,
+            "position": analysis.noise.position,
+            "orientation": analysis.noise.orientation,
+            "distribution": analysis.noise.distribution,
+            "sigmas": list(analysis.noise.sigmas),
+        },
+        "predicted_mean_abs_error_mm": {
+            "estimator": float(analysis.mean_error_estimator),
+            "bound": float(analysis.mean_error_bound),
+        },
+        "parameters": {
+            name: {"std_estimator": float(se), "std_bound": float(sb)}
+            for name, se, sb in zip(analysis.names, analysis.std_estimator, analysis.std_bound, strict=True)
+        },
+    }
+    out["condition_number"] = float(analysis.indices.condition_number)
+    if n_test:
+        pos, rot = analysis.test_position_rms, analysis.test_orientation_rms
+        out["test_poses"] = {
+            "n": n_test,
+            "position_rms_mm": [float(v) for v in pos],
+            "orientation_rms_rad": [float(v) for v in rot],
+            "position_rms_mean_mm": float(np.mean(pos)),
+            "position_rms_max_mm": float(np.max(pos)),
+            "orientation_rms_mean_rad": float(np.mean(rot)),
+            "orientation_rms_max_rad": float(np.max(rot)),
+        }
+    return out
+
+
+def _pose_error_stats(errors: dict[str, NDArray[np.float64]]) -> dict[str, float]:
+    """Per-trial max averaged over trials, and RMS over all poses of all trials."""
+    out: dict[str, float] = {}
+    for key in ("position", "orientation"):
+        e = errors[key]
+        out[f"{key}_max"] = float(np.nanmean(np.nanmax(e, axis=1)))
+        out[f"{key}_rms"] = float(np.sqrt(np.nanmean(e**2)))
+        out[f"{key}_max_worst"] = float(np.nanmax(e))
+    return out
+
+
+def paper_summary(experiment: Any, **meta: Any) -> dict[str, Any]:
+    """The Table I reproduction as a JSON-ready mapping (the ``hexcal paper`` table1.json).
+
+    ``experiment`` is a :class:`hexcal.simulation.PaperExperiment`. Every row
+    (``interior``, ``boundary`` and any extra rows) has its mean absolute parameter error
+    (mm) as a top-level number, its standard deviation over trials in ``std``, and, under
+    ``bound``, the Cramér–Rao bound of that error and the efficiency (error / bound).
+    """
+    errors = experiment.mean_abs_errors()
+    summary: dict[str, Any] = dict(meta)
+    bounds = {}
+    for row in errors:
+        b = experiment.bound_of(row)
+        if b is not None:
+            bound = float(np.mean(b))
+            bounds[row] = {"bound": bound, "efficiency": float(np.nanmean(errors[row])) / bound}
+    summary.update(
+        {
+            "trials": experiment.trials,
+            "method": experiment.method,
+            **{row: float(np.nanmean(values)) for row, values in errors.items()},
+            "rows": {row: ROW_LABELS.get(row, row) for row in errors},
+            "std": {k: float(np.nanstd(v)) for k, v in errors.items()},
+            "bound": bounds,
+            "failures": experiment.failures,
+            "paper": dict(PAPER_TABLE1),
+            "validation": {
+                "before": _pose_error_stats(experiment.validation_before),
+                "after": _pose_error_stats(experiment.validation_after),
+                "paper": PAPER_VALIDATION,
+                "statistics": "max: per-trial maximum over the validation poses, averaged over "
+                "trials; rms: over all validation poses of all trials; max_worst: over all",
+            },
+        }
+    )
+    return summary
+
+
+def paper_figure_data(experiment: Any) -> dict[str, Any]:
+    """The arrays of the paper's Figs. 10 and 11 (see :mod:`hexcal.report.figures`).
+
+    ``before``, ``interior``, ``boundary``: mean absolute error (mm) of each of the 42
+    parameters over the trials; ``validation_before`` and ``validation_after``: the first
+    trial's position (mm) and orientation (rad) errors at the validation poses.
+    """
+    true = experiment.true_vectors
+    return {
+        "trials": experiment.trials,
+        "before": np.abs(experiment.nominal_vector - true).mean(axis=0),
+        "interior": np.nanmean(np.abs(experiment.interior_vectors - true), axis=0),
+        "boundary": np.nanmean(np.abs(experiment.boundary_vectors - true), axis=0),
+        "validation_before": {k: experiment.validation_before[k][0] for k in ("position", "orientation")},
+        "validation_after": {k: experiment.validation_after[k][0] for k in ("position", "orientation")},
+    }

@@ -1,0 +1,95 @@
+"""CSV table builders: each returns ``(columns, rows, ids, comment)`` for
+:func:`hexcal.io.write_table` (``rows`` an array of shape (n, len(columns)); ``ids`` None
+for tables without an id column). Imports numpy.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+#: A CSV table: columns, rows (n, k), ids (or None) and the comment line.
+Table = tuple[list[str], NDArray[np.float64], list[str] | None, str]
+
+#: Numeric columns of ``study.csv``.
+STUDY_COLUMNS = ["poses", "error_mean", "error_std", "bound", "efficiency", "position_rms", "orientation_rms"]
+
+#: Columns of the pose of the error-map tables.
+POSE_COLUMNS = ["x", "y", "z", "a", "b", "c"]
+
+
+def study_table(rows: Sequence[dict[str, Any]]) -> Table:
+    """``study.csv`` of the ``StudyCell.row()`` dictionaries of a study.
+
+    >>> row = {"strategy": "corners", "poses": 15, "noise": "x1", "method": "ml", "error_mean": 0.3,
+    ...        "error_std": 0.1, "bound": 0.25, "efficiency": 1.2, "position_rms": 0.01,
+    ...        "orientation_rms": 2e-6}
+    >>> columns, values, ids, comment = study_table([row])
+    >>> values.shape, ids
+    ((1, 7), ['corners/x1/ml'])
+    """
+    values = np.array([[r[k] for k in STUDY_COLUMNS] for r in rows], dtype=float)
+    ids = [f"{r['strategy']}/{r['noise']}/{r['method']}" for r in rows]
+    return list(STUDY_COLUMNS), values, ids, "id: strategy/noise/method; mm and rad"
+
+
+def validation_table(calibrated: Any, nominal: Any | None, ids: Sequence[str]) -> Table:
+    """Per-pose validation table: leg residual RMS, position and orientation error of each
+    pose, for the calibrated geometry and optionally the nominal one
+    (:class:`hexcal.estimation.ValidationResult`)."""
+    columns = ["leg_rms", "position_error", "orientation_error"]
+    results = [calibrated] + ([nominal] if nominal is not None else [])
+    table = []
+    for res in results:
+        table += [
+            np.sqrt(np.mean(res.leg_residuals**2, axis=1)),
+            res.position_error,
+            res.orientation_error,
+        ]
+    if nominal is not None:
+        columns += ["nominal_leg_rms", "nominal_position_error", "nominal_orientation_error"]
+    comment = "per-pose validation: mm and rad; leg_rms is the RMS of the six leg residuals"
+    return columns, np.column_stack(table), list(ids), comment
+
+
+def errormap_tables(maps: Any) -> dict[str, Table]:
+    """The CSV tables of error maps (:class:`hexcal.design.ErrorMaps`) by table name
+    (``x``, ``y``, ``z``, the angle pairs, ``corners``, ``interior``): file
+    ``errormap_<name>.csv``."""
+    tables: dict[str, Table] = {}
+    for axis, line in maps.lines.items():
+        rows = np.column_stack(
+            [
+                line.poses.reshape(-1, 6),
+                np.repeat(line.levels, line.values.size),
+                line.position.mean(-1).ravel(),
+                line.position.std(-1).ravel(),
+                line.orientation.mean(-1).ravel(),
+                line.orientation.std(-1).ravel(),
+            ]
+        )
+        columns = [
+            *POSE_COLUMNS,
+            f"level_{line.level_axis}",
+            "position_mm",
+            "position_sd_mm",
+            "orientation_rad",
+            "orientation_sd_rad",
+        ]
+        comment = (
+            f"pose error along {axis}, mean and sd over {maps.draws} draws of parameter errors "
+            f"uniform in ±{maps.amplitude:g} mm ({maps.method}); angles in rad"
+        )
+        tables[axis] = (columns, rows, None, comment)
+    for name, grid in maps.angles.items():
+        rows = np.column_stack([grid.poses.reshape(-1, 6), grid.position.ravel(), grid.orientation.ravel()])
+        comment = f"mean pose error over {name} at every z level, {maps.draws} parameter draws; rad"
+        tables[name] = ([*POSE_COLUMNS, "position_mm", "orientation_rad"], rows, None, comment)
+    for name, ref in (("corners", maps.corners), ("interior", maps.interior)):
+        rows = np.column_stack([ref["poses"], ref["position"], ref["orientation"]])
+        comment = f"mean pose error at the {name} reference poses, {maps.draws} parameter draws; rad"
+        tables[name] = ([*POSE_COLUMNS, "position_mm", "orientation_rad"], rows, None, comment)
+    return tables
