@@ -1,4 +1,4 @@
-"""Error maps of random parameter errors (hexcal.design.errormap), after the seed paper's Figs. 4-9.
+"""Error maps of random parameter errors (design: pose_errors, errormap, paper_claims), after Figs. 4-9.
 
 Provenance: the first-order map is checked against the forward kinematics of every
 perturbed machine; the claims are the seed paper's section IV (errors largest on the
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from hexcal.core.parameters import select_parameters
-from hexcal.design.errormap import (
+from hexcal.core import select_parameters
+from hexcal.design import (
     angle_grid_poses,
     claims,
     error_maps,
@@ -26,7 +26,7 @@ from hexcal.design.errormap import (
 
 @pytest.fixture(scope="module")
 def small_maps():
-    from hexcal.core.presets import preset
+    from hexcal.core import preset
 
     return error_maps(preset("paper-hmt"), levels=6, points=9, grid=7, draws=40, rng=1, interior=300)
 

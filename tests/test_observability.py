@@ -1,4 +1,4 @@
-"""Observability indices, identifiability and predicted accuracy (hexcal.design.identifiability).
+"""Observability indices, identifiability and predicted accuracy (design: indices, accuracy).
 
 Provenance of the reference values:
 - O1-O5 follow their definitions (Sun & Hollerbach 2008, doi:10.1109/ROBOT.2008.4543242)
@@ -19,11 +19,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from hexcal.core.kinematics import forward_kinematics, inverse_kinematics
-from hexcal.core.measurement import NoiseModel
-from hexcal.core.parameters import PARAMETER_NAMES, select_parameters
-from hexcal.core.workspace import workspace_corners
-from hexcal.design.identifiability import (
+from hexcal.core import (
+    PARAMETER_NAMES,
+    NoiseModel,
+    forward_kinematics,
+    inverse_kinematics,
+    select_parameters,
+    workspace_corners,
+)
+from hexcal.design import (
     analyse_poses,
     column_scales,
     format_combination,
@@ -39,8 +43,7 @@ from hexcal.design.identifiability import (
     unidentifiable_combinations,
 )
 from hexcal.errors import IdentificationError
-from hexcal.estimation.bounds import cramer_rao_covariance, residual_covariances
-from hexcal.estimation.identification import identify
+from hexcal.estimation import cramer_rao_covariance, identify, residual_covariances
 
 NAMES42 = PARAMETER_NAMES[:42]
 
@@ -171,7 +174,7 @@ def test_poses_that_never_rotate_lose_eighteen_combinations(nominal):
 def test_identify_refuses_the_set_the_analysis_calls_rank_deficient(nominal):
     # measurements exactly at the planned poses (a real machine's small tilts would make
     # the Jacobian numerically full rank but useless)
-    from hexcal.estimation.bounds import planned_measurements
+    from hexcal.estimation import planned_measurements
 
     poses = workspace_corners(nominal)[::4].copy()
     poses[:, 3:] = 0.0

@@ -13,30 +13,35 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from hexcal.core.measurement import NoiseModel
-from hexcal.core.parameters import PARAMETER_SCALE, select_parameters
-from hexcal.core.workspace import box_corners, random_interior, workspace_box, workspace_corners
-from hexcal.design.candidates import (
+from hexcal.core import (
+    PARAMETER_SCALE,
+    NoiseModel,
+    box_corners,
+    random_interior,
+    select_parameters,
+    workspace_box,
+    workspace_corners,
+)
+from hexcal.design import (
+    CRITERIA,
+    GREEDY_RIDGE,
     MIN_SINGULARITY_DISTANCE,
     boundary_grid,
     candidate_poses,
     check_feasibility,
-    singularity_distance,
-)
-from hexcal.design.identifiability import least_squares_covariance, mean_abs_error
-from hexcal.design.selection import (
-    CRITERIA,
-    GREEDY_RIDGE,
     criterion_value,
     exchange_selection,
     greedy_selection,
     information_blocks,
     information_matrix,
+    least_squares_covariance,
+    mean_abs_error,
     random_subsets,
     select_poses,
+    singularity_distance,
 )
 from hexcal.errors import SelectionError
-from hexcal.estimation.bounds import fisher_information
+from hexcal.estimation import fisher_information
 
 
 def random_blocks(n_cand=60, rows=3, p=8, seed=0):

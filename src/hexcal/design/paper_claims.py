@@ -1,0 +1,156 @@
+"""The seed paper's claims about its error maps, in numbers.
+
+The seed paper reads from its Figs. 4-9 that the pose error that parameter errors cause,
+hence their observability, is largest on the workspace boundary and at larger z.
+:func:`claims` turns the maps of :func:`hexcal.design.errormap.error_maps` into numbers
+that test both claims; :func:`format_claims` writes them as a short text. Imports numpy and
+:mod:`hexcal.design.errormap`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hexcal.design.errormap import AngleMap, ErrorMaps, LineMap
+
+
+def _spearman(x: NDArray[np.float64], y: NDArray[np.float64]) -> float:
+    rx = np.argsort(np.argsort(x)).astype(float)
+    ry = np.argsort(np.argsort(y)).astype(float)
+    rx -= rx.mean()
+    ry -= ry.mean()
+    denom = np.sqrt(np.sum(rx**2) * np.sum(ry**2))
+    return float(np.sum(rx * ry) / denom) if denom > 0 else 0.0
+
+
+def _line_claims(line: LineMap, key: str) -> dict[str, float]:
+    draws = getattr(line, key)  # (L, P, D)
+    mean = draws.mean(axis=-1)  # (L, P)
+    last = mean.shape[1] - 1
+    at_end = np.isin(np.argmax(mean, axis=1), (0, last))
+    at_end_draws = np.isin(np.argmax(draws, axis=1), (0, last))
+    ends = np.maximum(mean[:, 0], mean[:, -1])
+    out = {
+        "max_at_an_end": float(at_end.mean()),
+        "max_at_an_end_single_draws": float(at_end_draws.mean()),
+        "max_at_upper_end": float(np.mean(np.argmax(mean, axis=1) == last)),
+        "end_over_min": float(np.mean(ends / mean.min(axis=1))),
+        "end_over_centre": float(np.mean(ends / mean[:, last // 2])),
+    }
+    level_mean = mean.mean(axis=1)
+    out["level_rank_correlation"] = _spearman(line.levels, level_mean)
+    out["top_level_over_bottom_level"] = float(level_mean[-1] / level_mean[0])
+    return out
+
+
+def _angle_claims(grid: AngleMap, key: str) -> dict[str, float]:
+    values = getattr(grid, key)  # (L, G, G)
+    n_levels, g, _ = values.shape
+    flat = values.reshape(n_levels, -1)
+    i, j = np.unravel_index(np.argmax(flat, axis=1), (g, g))
+    on_edge = (i == 0) | (i == g - 1) | (j == 0) | (j == g - 1)
+    at_corner = ((i == 0) | (i == g - 1)) & ((j == 0) | (j == g - 1))
+    edge = np.ones((g, g), dtype=bool)
+    edge[1:-1, 1:-1] = False
+    level_mean = flat.mean(axis=1)
+    return {
+        "max_on_boundary": float(on_edge.mean()),
+        "max_at_a_corner": float(at_corner.mean()),
+        "boundary_mean_over_inside_mean": float(
+            np.mean(values[:, edge].mean(axis=1) / values[:, ~edge].mean(axis=1))
+        ),
+        "max_over_centre": float(np.mean(flat.max(axis=1) / values[:, g // 2, g // 2])),
+        "level_rank_correlation": _spearman(grid.levels, level_mean),
+        "top_level_over_bottom_level": float(level_mean[-1] / level_mean[0]),
+    }
+
+
+def claims(maps: ErrorMaps) -> dict[str, dict[str, dict[str, float]] | dict[str, float]]:
+    """Numbers that test the seed paper's claims about its error maps.
+
+    Returns
+    -------
+    dict
+        ``lines[axis][position|orientation]``: fraction of curves (mean over draws) whose
+        maximum is at an end of the sweep (``max_at_an_end``; also of single-draw curves
+        and at the upper end), the end value over the curve's minimum and over its centre,
+        and the Spearman rank correlation between the level (z; x for the z sweep) and the
+        curve's mean, with the ratio of the top level's mean to the bottom level's.
+        ``angles[pair][...]``: fraction of z levels whose grid maximum is on the boundary of
+        the angle square (and at one of its corners), boundary over inside mean, maximum
+        over centre, and the z correlation. ``workspace``: mean error at the 64 corners
+        over that at random interior poses, and the corners' mean at the top z over the
+        bottom z.
+    """
+    out: dict = {"lines": {}, "angles": {}, "workspace": {}}
+    for axis, line in maps.lines.items():
+        out["lines"][axis] = {k: _line_claims(line, k) for k in ("position", "orientation")}
+    for name, grid in maps.angles.items():
+        out["angles"][name] = {k: _angle_claims(grid, k) for k in ("position", "orientation")}
+    z = maps.corners["poses"][:, 2]
+    top, bottom = z == z.max(), z == z.min()
+    for key in ("position", "orientation"):
+        c, i = maps.corners[key], maps.interior[key]
+        out["workspace"][key] = {
+            "corners_mean": float(c.mean()),
+            "interior_mean": float(i.mean()),
+            "corners_over_interior": float(c.mean() / i.mean()),
+            "interior_above_corner_mean": float(np.mean(i > c.mean())),
+            "corners_top_z_over_bottom_z": float(c[top].mean() / c[bottom].mean()),
+        }
+    return out
+
+
+def format_claims(summary: dict) -> str:
+    """The numbers of :func:`claims` as a short report on the paper's two claims."""
+    lines_ = ["Boundary claim (errors largest on the workspace boundary):"]
+    for axis, by_key in summary["lines"].items():
+        p, o = by_key["position"], by_key["orientation"]
+        lines_.append(
+            f"  {axis} sweep: max at an end in {p['max_at_an_end']:.0%} (position) / "
+            f"{o['max_at_an_end']:.0%} (orientation) of the mean curves, "
+            f"{p['max_at_an_end_single_draws']:.0%} / {o['max_at_an_end_single_draws']:.0%} of single draws; "
+            f"end / centre = {p['end_over_centre']:.3f} / {o['end_over_centre']:.3f}"
+        )
+    for name, by_key in summary["angles"].items():
+        p, o = by_key["position"], by_key["orientation"]
+        lines_.append(
+            f"  {name} grid: max on the boundary at {p['max_on_boundary']:.0%} / "
+            f"{o['max_on_boundary']:.0%} of z levels (at a corner {p['max_at_a_corner']:.0%} / "
+            f"{o['max_at_a_corner']:.0%}); max / centre = {p['max_over_centre']:.3f} / "
+            f"{o['max_over_centre']:.3f}"
+        )
+    wp, wo = summary["workspace"]["position"], summary["workspace"]["orientation"]
+    lines_.append(
+        f"  64 corners vs random interior poses: {wp['corners_mean']:.4f} vs {wp['interior_mean']:.4f} mm "
+        f"(x{wp['corners_over_interior']:.3f}), {wo['corners_mean'] * 1e3:.4f} vs "
+        f"{wo['interior_mean'] * 1e3:.4f} mrad (x{wo['corners_over_interior']:.3f}); "
+        f"{wp['interior_above_corner_mean']:.0%} / {wo['interior_above_corner_mean']:.0%} of interior "
+        "poses exceed the corners' mean"
+    )
+    lines_.append("Height claim (errors larger at larger z):")
+    for axis in ("x", "y"):
+        p, o = summary["lines"][axis]["position"], summary["lines"][axis]["orientation"]
+        lines_.append(
+            f"  {axis} sweeps: rank correlation of z with the curve mean "
+            f"{p['level_rank_correlation']:+.3f} / {o['level_rank_correlation']:+.3f}; "
+            f"top z / bottom z = {p['top_level_over_bottom_level']:.3f} / "
+            f"{o['top_level_over_bottom_level']:.3f}"
+        )
+    p, o = summary["lines"]["z"]["position"], summary["lines"]["z"]["orientation"]
+    lines_.append(
+        f"  z sweeps: max at the upper end (largest z) in {p['max_at_upper_end']:.0%} / "
+        f"{o['max_at_upper_end']:.0%} of the curves"
+    )
+    for name, by_key in summary["angles"].items():
+        p, o = by_key["position"], by_key["orientation"]
+        lines_.append(
+            f"  {name} grids: top z / bottom z = {p['top_level_over_bottom_level']:.3f} / "
+            f"{o['top_level_over_bottom_level']:.3f}"
+        )
+    lines_.append(
+        f"  corners at the top z / bottom z: {wp['corners_top_z_over_bottom_z']:.3f} / "
+        f"{wo['corners_top_z_over_bottom_z']:.3f}"
+    )
+    return "\n".join(lines_)
