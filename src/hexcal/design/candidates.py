@@ -11,6 +11,9 @@ it may be proposed (:func:`check_feasibility`). Imports :mod:`hexcal.core`.
 (64, 6)
 >>> check_feasibility(machine, candidate_poses(machine, "corners")).n_infeasible
 0
+>>> report = check_feasibility(machine, [machine.home_pose, [0, 0, 0, 0, 0, 1.57]])
+>>> report.feasible.tolist(), report.to_dict()["reasons"][1]
+([True, False], 'leg below its lower limit, near singular (0 < 0.05)')
 """
 
 from __future__ import annotations
@@ -253,14 +256,7 @@ def check_feasibility(
     Returns
     -------
     Feasibility
-
-    Examples
-    --------
-    >>> from hexcal.core import preset
-    >>> machine = preset("paper-hmt")
-    >>> report = check_feasibility(machine, [machine.home_pose, [0, 0, 0, 0, 0, 1.57]])
-    >>> report.feasible.tolist(), report.to_dict()["reasons"][1]
-    ([True, False], 'leg below its lower limit, near singular (0 < 0.05)')
+        With :meth:`Feasibility.reasons` per pose (see the module's example).
     """
     poses = as_poses(poses).reshape(-1, 6)
     if not np.all(np.isfinite(poses)):

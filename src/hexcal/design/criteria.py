@@ -180,6 +180,11 @@ class Scorer:
     ``M_j = B_j F⁻¹ B_jᵀ`` and (A only) ``G_j = B_j F⁻² B_jᵀ``, all small (6 × 6). A rank-6
     change ``F ± B_cᵀ B_c`` updates them by Woodbury with two thin products over the
     candidates; they are recomputed from scratch every ``REFRESH`` changes against drift.
+
+    >>> blocks = np.array([[[2.0, 0.0]], [[0.0, 1.0]], [[1.0, 2.0]]])
+    >>> scorer = Scorer(blocks, np.eye(2), "D")
+    >>> np.round(scorer.scores(), 4).tolist()  # mean log eigenvalue of I + B_jᵀ B_j
+    [0.8047, 0.3466, 0.8959]
     """
 
     REFRESH = 8
@@ -277,6 +282,10 @@ def best_by_eigenvalues(
     computed only for a pool of candidates, grown until the smallest diagonal entry of
     the Ritz matrix (an upper bound of its smallest eigenvalue) proves that no candidate
     outside the pool could enter the shortlist.
+
+    >>> blocks = np.array([[[2.0, 0.0]], [[0.0, 1.0]], [[1.0, 2.0]]])
+    >>> best_by_eigenvalues(np.diag([1.0, 4.0]), blocks, np.ones(3, dtype=bool), "E")
+    (0, 4.0)
     """
     n_cand, rows, p = blocks.shape
     lam, vec = np.linalg.eigh(info)

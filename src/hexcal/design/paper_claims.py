@@ -82,6 +82,17 @@ def claims(maps: ErrorMaps) -> dict[str, dict[str, dict[str, float]] | dict[str,
         over centre, and the z correlation. ``workspace``: mean error at the 64 corners
         over that at random interior poses, and the corners' mean at the top z over the
         bottom z.
+
+    Examples
+    --------
+    >>> from hexcal.core import preset
+    >>> from hexcal.design import error_maps
+    >>> maps = error_maps(preset("paper-hmt"), levels=3, points=5, grid=3, draws=8, rng=0, interior=50)
+    >>> summary = claims(maps)
+    >>> sorted(summary), sorted(summary["lines"]["x"])
+    (['angles', 'lines', 'workspace'], ['orientation', 'position'])
+    >>> summary["workspace"]["position"]["corners_over_interior"] > 1  # the boundary claim
+    True
     """
     out: dict = {"lines": {}, "angles": {}, "workspace": {}}
     for axis, line in maps.lines.items():

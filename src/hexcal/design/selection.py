@@ -184,6 +184,13 @@ def exchange_selection(
     passes : int
         Cycles over the positions (started ones count).
 
+    Examples
+    --------
+    >>> blocks = np.array([[[2.0, 0.0]], [[0.0, 1.0]], [[1.0, 2.0]]])
+    >>> indices, swaps, passes = exchange_selection(blocks, [0, 1], "D")
+    >>> indices.tolist(), swaps
+    ([0, 2], 1)
+
     Notes
     -----
     A set that does not identify every parameter is first improved on the D criterion of
