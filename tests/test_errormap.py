@@ -135,3 +135,23 @@ def test_error_maps_need_a_workspace_and_sane_sizes(nominal):
         error_maps(nominal.replace(workspace=None), levels=2, points=3, grid=3, draws=2)
     with pytest.raises(ValueError, match="points"):
         error_maps(nominal, levels=2, points=1, grid=3, draws=2)
+
+
+def test_error_maps_to_dict_holds_the_mean_maps(small_maps):
+    """The JSON form holds settings and mean curves/grids over the draws, not the draws."""
+    import json
+
+    data = small_maps.to_dict()
+    json.dumps(data)
+    assert data["settings"] == {
+        "amplitude_mm": 0.1,
+        "draws": 40,
+        "method": "linear",
+        "parameters": list(small_maps.parameters),
+    }
+    line = small_maps.lines["x"]
+    assert_allclose(data["lines"]["x"]["position_mean_mm"], line.position.mean(axis=-1))
+    assert_allclose(data["lines"]["x"]["orientation_sd_rad"], line.orientation.std(axis=-1))
+    assert data["lines"]["x"]["draws"] == 40 and data["lines"]["x"]["levels"] == line.levels.tolist()
+    assert_allclose(data["angles"]["a-b"]["position_mean_mm"], small_maps.angles["a-b"].position)
+    assert_allclose(data["corners"]["position"], small_maps.corners["position"])

@@ -287,3 +287,27 @@ def test_predicted_error_matches_identify_by_monte_carlo(nominal, true_machine, 
         data = simulate_measurements(nominal, true_machine, corner_poses, rng=np.random.default_rng(child))
         errors.append(np.mean(np.abs(identify(nominal, data, method="length").values - truth)))
     assert np.mean(errors) == pytest.approx(predicted, rel=0.05)
+
+
+def test_analysis_to_dict_is_json_ready_and_has_the_cli_schema(nominal, corner_poses):
+    """``to_dict`` holds what ``hexcal observability --json`` writes; inf stays a float."""
+    import json
+
+    corners = workspace_corners(nominal)
+    analysis = analyse_poses(nominal, corner_poses, test_poses=corners)
+    data = analysis.to_dict()
+    json.dumps(data)
+    assert list(data)[:4] == ["n_poses", "n_parameters", "rank", "scaling"]
+    assert data["rank"] == 42 and data["n_parameters"] == 42 and data["unidentifiable"] == []
+    assert data["O1"] == analysis.indices.O1
+    assert data["singular_values"] == analysis.indices.singular_values.tolist()
+    assert data["predicted_mean_abs_error_mm"]["estimator"] == analysis.mean_error_estimator
+    assert data["parameters"]["u1.x"]["std_bound"] == analysis.std_bound[0]
+    assert data["test_poses"]["n"] == 64
+    assert data["test_poses"]["position_rms_max_mm"] == float(np.max(analysis.test_position_rms))
+    flat = corners.copy()
+    flat[:, 3:] = 0.0
+    lost = analyse_poses(nominal, flat).to_dict()
+    assert "test_poses" not in lost and lost["rank"] == 24
+    assert lost["predicted_mean_abs_error_mm"]["estimator"] == np.inf
+    assert data["scaling"] == analysis.indices.to_dict()["scaling"] == analysis.indices.as_dict()["scaling"]

@@ -25,7 +25,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hexcal._lazy import attach
-from hexcal.core import POSE_NAMES, Geometry, box_corners, parameter_names, random_interior, workspace_box
+from hexcal.core import (
+    POSE_NAMES,
+    Geometry,
+    as_box,
+    box_corners,
+    parameter_names,
+    random_interior,
+    workspace_box,
+)
 from hexcal.design.identifiability import as_mask
 from hexcal.design.pose_errors import mean_pose_errors, parameter_error_draws, pose_error_samples
 
@@ -182,7 +190,7 @@ def line_sweep_poses(
     >>> values.tolist(), levels.tolist(), poses.shape
     ([-1.0, 0.0, 1.0], [0.0, 2.0], (2, 3, 6))
     """
-    b = np.asarray(box, dtype=float)
+    b = as_box(box)
     k, kl = POSE_NAMES.index(axis), POSE_NAMES.index(level_axis)
     values = np.linspace(b[k, 0], b[k, 1], int(points))
     level_values = np.linspace(b[kl, 0], b[kl, 1], int(levels))
@@ -205,7 +213,7 @@ def angle_grid_poses(
     >>> a.tolist(), zs.tolist(), poses.shape
     ([-0.1, 0.0, 0.1], [0.0, 2.0], (2, 3, 3, 6))
     """
-    b = np.asarray(box, dtype=float)
+    b = as_box(box)
     k1, k2, kz = POSE_NAMES.index(axes[0]), POSE_NAMES.index(axes[1]), 2
     v1 = np.linspace(b[k1, 0], b[k1, 1], int(grid))
     v2 = np.linspace(b[k2, 0], b[k2, 1], int(grid))
