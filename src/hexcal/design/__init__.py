@@ -4,7 +4,7 @@ estimation layers.
 
 Modules, lowest first: ``candidates`` (candidate poses and their feasibility),
 ``identifiability`` (rank, null space, lost combinations by name), ``indices`` (O1–O5),
-``accuracy`` (predicted covariances and pose errors, one pose set analysed),
+``accuracy`` (predicted covariances and pose errors), ``analysis`` (one pose set, all of it),
 ``criteria`` (optimality criteria and their rank-6 updates), ``selection`` (greedy and
 exchange), ``pose_errors``, ``errormap`` and ``paper_claims`` (the seed paper's error maps).
 
@@ -31,13 +31,13 @@ __getattr__, __dir__, __all__ = attach(
         "MEAN_ABS_FACTOR": "accuracy",
         "MIN_SINGULARITY_DISTANCE": "candidates",
         "ObservabilityIndices": "indices",
-        "PoseSetAnalysis": "accuracy",
+        "PoseSetAnalysis": "analysis",
         "SCALINGS": "indices",
         "SCORING_RIDGE": "criteria",
         "SCREEN_DIMENSIONS": "criteria",
         "SCREEN_SHORTLIST": "criteria",
         "SelectionResult": "selection",
-        "analyse_poses": "accuracy",
+        "analyse_poses": "analysis",
         "angle_grid_poses": "errormap",
         "boundary_grid": "candidates",
         "candidate_poses": "candidates",

@@ -152,9 +152,9 @@ __getattr__ = attach(
     {
         "MEAN_ABS_FACTOR": "accuracy",
         "ObservabilityIndices": "indices",
-        "PoseSetAnalysis": "accuracy",
+        "PoseSetAnalysis": "analysis",
         "SCALINGS": "indices",
-        "analyse_poses": "accuracy",
+        "analyse_poses": "analysis",
         "column_scales": "indices",
         "indices_from_singular_values": "indices",
         "least_squares_covariance": "accuracy",
