@@ -21,8 +21,7 @@ import numpy as np
 
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_interior
-from hexcal.design.candidates import check_feasibility
-from hexcal.design.selection import CRITERIA, information_blocks, select_poses
+from hexcal.design import CRITERIA, check_feasibility, information_blocks, select_poses
 
 TARGET_SECONDS = 2.0
 TARGET_CANDIDATES = 10_000

@@ -43,13 +43,20 @@ from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_interior
-from hexcal.design.candidates import candidate_poses
-from hexcal.design.errormap import claims, error_maps, format_claims
-from hexcal.design.identifiability import least_squares_covariance, mean_abs_error
-from hexcal.design.selection import information_blocks, random_subsets, select_poses
+from hexcal.design import (
+    candidate_poses,
+    claims,
+    error_maps,
+    information_blocks,
+    least_squares_covariance,
+    mean_abs_error,
+    random_subsets,
+    select_poses,
+)
 from hexcal.errors import IdentificationError
 from hexcal.estimation.bounds import cramer_rao_covariance
 from hexcal.estimation.fitting import estimate
+from hexcal.report import claims_text as format_claims
 from hexcal.simulation.campaign import simulate_measurements
 
 N_POSES = 15

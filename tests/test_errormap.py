@@ -1,4 +1,4 @@
-"""Error maps of random parameter errors (hexcal.design.errormap), after the seed paper's Figs. 4-9.
+"""Error maps of random parameter errors (design: pose_errors, errormap, paper_claims), after Figs. 4-9.
 
 Provenance: the first-order map is checked against the forward kinematics of every
 perturbed machine; the claims are the seed paper's section IV (errors largest on the
@@ -12,12 +12,11 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from hexcal.core.parameters import select_parameters
-from hexcal.design.errormap import (
+from hexcal.core import select_parameters
+from hexcal.design import (
     angle_grid_poses,
     claims,
     error_maps,
-    format_claims,
     line_sweep_poses,
     parameter_error_draws,
     pose_error_samples,
@@ -26,7 +25,7 @@ from hexcal.design.errormap import (
 
 @pytest.fixture(scope="module")
 def small_maps():
-    from hexcal.core.presets import preset
+    from hexcal.core import preset
 
     return error_maps(preset("paper-hmt"), levels=6, points=9, grid=7, draws=40, rng=1, interior=300)
 
@@ -126,7 +125,9 @@ def test_the_paper_claims_hold_on_paper_hmt(small_maps):
         workspace = summary["workspace"][key]
         assert workspace["corners_over_interior"] > 1.05
         assert workspace["corners_top_z_over_bottom_z"] > 1.05
-    text = format_claims(summary)
+    from hexcal.report import claims_text
+
+    text = claims_text(summary)
     assert "Boundary claim" in text and "Height claim" in text
 
 
@@ -135,3 +136,23 @@ def test_error_maps_need_a_workspace_and_sane_sizes(nominal):
         error_maps(nominal.replace(workspace=None), levels=2, points=3, grid=3, draws=2)
     with pytest.raises(ValueError, match="points"):
         error_maps(nominal, levels=2, points=1, grid=3, draws=2)
+
+
+def test_error_maps_to_dict_holds_the_mean_maps(small_maps):
+    """The JSON form holds settings and mean curves/grids over the draws, not the draws."""
+    import json
+
+    data = small_maps.to_dict()
+    json.dumps(data)
+    assert data["settings"] == {
+        "amplitude_mm": 0.1,
+        "draws": 40,
+        "method": "linear",
+        "parameters": list(small_maps.parameters),
+    }
+    line = small_maps.lines["x"]
+    assert_allclose(data["lines"]["x"]["position_mean_mm"], line.position.mean(axis=-1))
+    assert_allclose(data["lines"]["x"]["orientation_sd_rad"], line.orientation.std(axis=-1))
+    assert data["lines"]["x"]["draws"] == 40 and data["lines"]["x"]["levels"] == line.levels.tolist()
+    assert_allclose(data["angles"]["a-b"]["position_mean_mm"], small_maps.angles["a-b"].position)
+    assert_allclose(data["corners"]["position"], small_maps.corners["position"])

@@ -1,4 +1,4 @@
-"""Observability indices, identifiability and predicted accuracy (hexcal.design.identifiability).
+"""Observability indices, identifiability and predicted accuracy (design: indices, accuracy).
 
 Provenance of the reference values:
 - O1-O5 follow their definitions (Sun & Hollerbach 2008, doi:10.1109/ROBOT.2008.4543242)
@@ -19,11 +19,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from hexcal.core.kinematics import forward_kinematics, inverse_kinematics
-from hexcal.core.noise import NoiseModel
-from hexcal.core.parameters import PARAMETER_NAMES, select_parameters
-from hexcal.core.workspace import workspace_corners
-from hexcal.design.identifiability import (
+from hexcal.core import (
+    PARAMETER_NAMES,
+    NoiseModel,
+    forward_kinematics,
+    inverse_kinematics,
+    select_parameters,
+    workspace_corners,
+)
+from hexcal.design import (
     analyse_poses,
     column_scales,
     format_combination,
@@ -39,8 +43,7 @@ from hexcal.design.identifiability import (
     unidentifiable_combinations,
 )
 from hexcal.errors import IdentificationError
-from hexcal.estimation.bounds import cramer_rao_covariance, residual_covariances
-from hexcal.estimation.fitting import estimate
+from hexcal.estimation import cramer_rao_covariance, estimate, residual_covariances
 
 NAMES42 = PARAMETER_NAMES[:42]
 
@@ -171,7 +174,7 @@ def test_poses_that_never_rotate_lose_eighteen_combinations(nominal):
 def test_identify_refuses_the_set_the_analysis_calls_rank_deficient(nominal):
     # measurements exactly at the planned poses (a real machine's small tilts would make
     # the Jacobian numerically full rank but useless)
-    from hexcal.estimation.bounds import planned_measurements
+    from hexcal.estimation import planned_measurements
 
     poses = workspace_corners(nominal)[::4].copy()
     poses[:, 3:] = 0.0
@@ -284,3 +287,27 @@ def test_predicted_error_matches_identify_by_monte_carlo(nominal, true_machine, 
         data = simulate_measurements(nominal, true_machine, corner_poses, rng=np.random.default_rng(child))
         errors.append(np.mean(np.abs(estimate(nominal, data, "length", with_bound=False).values - truth)))
     assert np.mean(errors) == pytest.approx(predicted, rel=0.05)
+
+
+def test_analysis_to_dict_is_json_ready_and_has_the_cli_schema(nominal, corner_poses):
+    """``to_dict`` holds what ``hexcal observability --json`` writes; inf stays a float."""
+    import json
+
+    corners = workspace_corners(nominal)
+    analysis = analyse_poses(nominal, corner_poses, test_poses=corners)
+    data = analysis.to_dict()
+    json.dumps(data)
+    assert list(data)[:4] == ["n_poses", "n_parameters", "rank", "scaling"]
+    assert data["rank"] == 42 and data["n_parameters"] == 42 and data["unidentifiable"] == []
+    assert data["O1"] == analysis.indices.O1
+    assert data["singular_values"] == analysis.indices.singular_values.tolist()
+    assert data["predicted_mean_abs_error_mm"]["estimator"] == analysis.mean_error_estimator
+    assert data["parameters"]["u1.x"]["std_bound"] == analysis.std_bound[0]
+    assert data["test_poses"]["n"] == 64
+    assert data["test_poses"]["position_rms_max_mm"] == float(np.max(analysis.test_position_rms))
+    flat = corners.copy()
+    flat[:, 3:] = 0.0
+    lost = analyse_poses(nominal, flat).to_dict()
+    assert "test_poses" not in lost and lost["rank"] == 24
+    assert lost["predicted_mean_abs_error_mm"]["estimator"] == np.inf
+    assert data["scaling"] == analysis.indices.to_dict()["scaling"]

@@ -17,7 +17,7 @@ from numpy.testing import assert_allclose
 from hexcal.cli import main
 from hexcal.core.presets import preset
 from hexcal.core.workspace import workspace_corners
-from hexcal.design.identifiability import analyse_poses
+from hexcal.design import analyse_poses
 from hexcal.io import read_poses, read_table, write_poses
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

@@ -13,30 +13,35 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from hexcal.core.noise import NoiseModel
-from hexcal.core.parameters import PARAMETER_SCALE, select_parameters
-from hexcal.core.workspace import box_corners, random_interior, workspace_box, workspace_corners
-from hexcal.design.candidates import (
+from hexcal.core import (
+    PARAMETER_SCALE,
+    NoiseModel,
+    box_corners,
+    random_interior,
+    select_parameters,
+    workspace_box,
+    workspace_corners,
+)
+from hexcal.design import (
+    CRITERIA,
+    GREEDY_RIDGE,
     MIN_SINGULARITY_DISTANCE,
     boundary_grid,
     candidate_poses,
     check_feasibility,
-    singularity_distance,
-)
-from hexcal.design.identifiability import least_squares_covariance, mean_abs_error
-from hexcal.design.selection import (
-    CRITERIA,
-    GREEDY_RIDGE,
     criterion_value,
     exchange_selection,
     greedy_selection,
     information_blocks,
     information_matrix,
+    least_squares_covariance,
+    mean_abs_error,
     random_subsets,
     select_poses,
+    singularity_distance,
 )
 from hexcal.errors import SelectionError
-from hexcal.estimation.bounds import fisher_information
+from hexcal.estimation import fisher_information
 
 
 def random_blocks(n_cand=60, rows=3, p=8, seed=0):
@@ -283,3 +288,21 @@ def test_every_criterion_beats_random_corner_sets_on_its_own_measure(nominal):
         result = select_poses(blocks, 15, criterion, rng=0)
         values = [criterion_value(information_matrix(blocks, s), criterion) for s in randoms]
         assert result.value > max(values)
+
+
+def test_results_to_dict(nominal):
+    """Selection and feasibility results as plain Python (JSON-ready)."""
+    import json
+
+    corners = workspace_corners(nominal)
+    result = select_poses(information_blocks(nominal, corners), 10, "A", rng=0)
+    data = result.to_dict()
+    json.dumps(data)
+    assert data["indices"] == result.indices.tolist() and data["value"] == result.value
+    assert data["greedy_indices"] == result.greedy_indices.tolist() and data["passes"] == result.passes
+    poses = np.vstack([corners[:2], [[0.0, 0.0, 0.0, 0.0, 0.0, np.pi / 2]]])
+    report = check_feasibility(nominal, poses).to_dict()
+    json.dumps(report)
+    assert (report["n_poses"], report["n_feasible"], report["n_infeasible"]) == (3, 2, 1)
+    assert report["near_singular"] == 1 and report["feasible"] == [True, True, False]
+    assert report["reasons"][:2] == ["", ""] and "near singular" in report["reasons"][2]

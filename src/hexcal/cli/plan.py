@@ -151,7 +151,7 @@ def cmd_observability(args: argparse.Namespace) -> None:
     from hexcal.core import workspace_corners
     from hexcal.design import SCALINGS, analyse_poses, check_feasibility
     from hexcal.io import atomic_write, read_poses
-    from hexcal.report import analysis_dict, render
+    from hexcal.report import render
 
     check_outputs(args.json)
     geometry = load_geometry(args.geometry, args.euler)
@@ -174,7 +174,7 @@ def cmd_observability(args: argparse.Namespace) -> None:
     if report.n_infeasible:
         bad = [ids[k] for k in np.flatnonzero(~report.feasible)]
         warn(f"hexcal: warning: {args.poses}: {report.summary()} (ids {id_list(bad)})")
-    data = analysis_dict(analysis, 0 if test is None else len(test))
+    data = analysis.to_dict()
     print(render("observability", data, fit=args.fit))
     if args.json:
         with atomic_write(args.json) as fh:

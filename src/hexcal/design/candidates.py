@@ -3,25 +3,37 @@
 Candidates come from the workspace box of a geometry (its 64 corners, grids on its
 boundary, uniform random interior poses) or from the user; every candidate is checked
 against the leg length limits and against a minimum distance from singularity before
-it may be proposed (:func:`check_feasibility`).
+it may be proposed (:func:`check_feasibility`). Imports :mod:`hexcal.core`.
+
+>>> from hexcal.core import preset
+>>> machine = preset("paper-hmt")
+>>> candidate_poses(machine, "corners").shape
+(64, 6)
+>>> check_feasibility(machine, candidate_poses(machine, "corners")).n_infeasible
+0
+>>> report = check_feasibility(machine, [machine.home_pose, [0, 0, 0, 0, 0, 1.57]])
+>>> report.feasible.tolist(), report.to_dict()["reasons"][1]
+([True, False], 'leg below its lower limit, near singular (0 < 0.05)')
 """
 
 from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.core.conventions import as_poses
-from hexcal.core.geometry import Geometry
-from hexcal.core.kinematics import inverse_kinematics, pose_jacobian
-from hexcal.core.workspace import (
+from hexcal.core import (
     LEG_LIMIT_MARGIN,
+    Geometry,
     as_box,
+    as_poses,
     box_corners,
+    inverse_kinematics,
     leg_limit_violations,
+    pose_jacobian,
     random_interior,
     workspace_box,
 )
@@ -52,6 +64,12 @@ def boundary_grid(box: ArrayLike, levels: int = 3, min_extreme: int = 1) -> NDAr
     ndarray, shape (k, 6)
         With ``levels=3`` and ``min_extreme=1``: ``3⁶ - 1 = 728`` points (all but the
         centre); with ``min_extreme=5``: 64 corners and the 192 edge midpoints.
+
+    Examples
+    --------
+    >>> box = [[-1, 1]] * 6
+    >>> boundary_grid(box).shape, boundary_grid(box, 3, 5).shape, boundary_grid(box, 2).shape
+    ((728, 6), (256, 6), (64, 6))
     """
     b = as_box(box)
     levels = int(levels)
@@ -107,7 +125,12 @@ def candidate_poses(
 
 
 def platform_radius(geometry: Geometry) -> float:
-    """Mean distance of the platform joints from the platform origin, mm."""
+    """Mean distance of the platform joints from the platform origin, mm.
+
+    >>> from hexcal.core import preset
+    >>> round(platform_radius(preset("paper-hmt")), 1)
+    125.0
+    """
     return float(np.mean(np.linalg.norm(geometry.platform_joints, axis=1)))
 
 
@@ -129,6 +152,13 @@ def singularity_distance(
     ``σmin(J diag(1, 1, 1, 1/L, 1/L, 1/L))`` with ``J = d l / d pose``: the smallest leg
     length change (mm) per mm of motion of the platform points at distance ``L`` from
     its origin. It is 0 at a singular pose, where some motion does not change any leg.
+
+    Examples
+    --------
+    >>> from hexcal.core import preset
+    >>> machine = preset("paper-hmt")
+    >>> round(float(singularity_distance(machine, machine.home_pose)), 2)
+    0.25
     """
     poses = as_poses(poses)
     scale = platform_radius(geometry) if length_scale is None else float(length_scale)
@@ -187,6 +217,22 @@ class Feasibility:
         ]
         return f"{self.n_infeasible} of {self.feasible.size} infeasible: " + ", ".join(parts)
 
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python form (for JSON): counts, and per pose whether it is feasible, its
+        singularity distance and why not (empty when it is)."""
+        return {
+            "n_poses": int(self.feasible.size),
+            "n_feasible": int(self.feasible.sum()),
+            "n_infeasible": self.n_infeasible,
+            "too_short": int(self.too_short.sum()),
+            "too_long": int(self.too_long.sum()),
+            "near_singular": int(self.near_singular.sum()),
+            "min_distance": self.min_distance,
+            "feasible": self.feasible.tolist(),
+            "distance": self.distance.tolist(),
+            "reasons": [self.reasons(k) for k in range(self.feasible.size)],
+        }
+
 
 def check_feasibility(
     geometry: Geometry,
@@ -210,6 +256,7 @@ def check_feasibility(
     Returns
     -------
     Feasibility
+        With :meth:`Feasibility.reasons` per pose (see the module's example).
     """
     poses = as_poses(poses).reshape(-1, 6)
     if not np.all(np.isfinite(poses)):

@@ -5,142 +5,39 @@ The seed paper's section IV (Figs. 4-9) gives the parameters random errors in
 y and z (one curve per z level, 100 levels) and over pairs of angles, and reads from the
 figures that the error, hence the observability of parameter errors, is largest on the
 workspace boundary and at larger z. This module computes those maps for many random
-parameter draws at once and the numbers that test the two claims (:func:`claims`).
+parameter draws at once.
 
 The controller commands the nominal leg readings of a target pose; a machine with
 parameter errors ``δθ`` reaches another pose. To first order the pose error is
-``E δθ`` with ``E = -J_pose⁻¹ A`` (:func:`hexcal.design.identifiability.pose_error_map`); with
+``E δθ`` with ``E = -J_pose⁻¹ A`` (:func:`hexcal.design.accuracy.pose_error_map`); with
 ``method="exact"`` the reached pose is the forward kinematics of the perturbed machine.
 Position error is ``|δp|`` (mm); orientation error the angle of the rotation between the
-target and the reached orientation (rad).
+target and the reached orientation (rad). The numbers that test the paper's claims are in
+:mod:`hexcal.design.paper_claims`. Imports :mod:`hexcal.core` and :mod:`hexcal.design.pose_errors`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.core.conventions import POSE_NAMES, as_poses, orientation_error
-from hexcal.core.geometry import Geometry
-from hexcal.core.kinematics import forward_kinematics_from_arrays, inverse_kinematics
-from hexcal.core.parameters import PARAMETER_SCALE, select_parameters
-from hexcal.core.workspace import box_corners, random_interior, workspace_box
-from hexcal.design.identifiability import pose_error_map, rotation_vector_map
+from hexcal.core import (
+    POSE_NAMES,
+    Geometry,
+    as_box,
+    box_corners,
+    parameter_names,
+    random_interior,
+    workspace_box,
+)
+from hexcal.design.identifiability import as_mask
+from hexcal.design.pose_errors import mean_pose_errors, parameter_error_draws, pose_error_samples
 
 LINE_AXES = ("x", "y", "z")
 ANGLE_PAIRS = (("a", "b"), ("a", "c"), ("b", "c"))
-_CHUNK = 2048  # poses per block of the linear map
-
-
-def parameter_error_draws(
-    n_draws: int,
-    mask: ArrayLike | None = None,
-    amplitude: float = 0.1,
-    rng: np.random.Generator | int | None = None,
-) -> NDArray[np.float64]:
-    """Random parameter errors, uniform in ``±amplitude`` characteristic units, shape (D, n).
-
-    ``amplitude`` is in mm for joints and ``l0`` (the paper's 0.1 mm); gains get
-    ``amplitude`` times their scale (1e-3, :data:`hexcal.estimation.identification.PARAMETER_SCALE`).
-    """
-    mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
-    if int(n_draws) < 1:
-        raise ValueError(f"the number of parameter draws must be at least 1, got {n_draws}")
-    if not (np.isfinite(amplitude) and amplitude > 0):
-        raise ValueError(f"the parameter error amplitude must be > 0, got {amplitude}")
-    gen = np.random.default_rng(rng)
-    scale = PARAMETER_SCALE[mask]
-    return gen.uniform(-amplitude, amplitude, size=(int(n_draws), scale.size)) * scale
-
-
-def _linear_errors(
-    geometry: Geometry, poses: NDArray[np.float64], draws: NDArray[np.float64], mask: NDArray[np.bool_]
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Position and orientation errors (m, D) of flat poses (m, 6) by the first-order map."""
-    m, n = poses.shape[0], draws.shape[1]
-    e = pose_error_map(geometry, poses, mask)  # (m, 6, n)
-    # angle rows to rotation-vector rows first: n columns are fewer than D draws
-    e[:, 3:] = np.matmul(rotation_vector_map(geometry, poses), e[:, 3:])
-    d = (e.reshape(-1, n) @ draws.T).reshape(m, 6, -1)  # (m, 6, D): δp and ω
-    d *= d
-    return np.sqrt(d[:, 0] + d[:, 1] + d[:, 2]), np.sqrt(d[:, 3] + d[:, 4] + d[:, 5])
-
-
-def _exact_errors(
-    geometry: Geometry, poses: NDArray[np.float64], draws: NDArray[np.float64], mask: NDArray[np.bool_]
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Position and orientation errors (m, D) by the forward kinematics of each perturbed machine."""
-    full = geometry.to_vector(gains=True)
-    vectors = np.broadcast_to(full, (draws.shape[0], full.size)).copy()
-    vectors[:, mask] += draws
-    u = vectors[:, :18].reshape(-1, 1, 6, 3)
-    s = vectors[:, 18:36].reshape(-1, 1, 6, 3)
-    readings = (inverse_kinematics(geometry, poses) - geometry.initial_leg_lengths) / geometry.leg_gains
-    lengths = vectors[:, None, 36:42] + vectors[:, None, 42:48] * readings  # (D, m, 6)
-    result = forward_kinematics_from_arrays(u, s, lengths, poses, geometry.euler)
-    if not result.all_converged:
-        raise ValueError(
-            f"forward kinematics of the perturbed machines did not converge for "
-            f"{int(np.sum(~result.converged))} pose(s)"
-        )
-    reached = np.swapaxes(result.poses, 0, 1)  # (m, D, 6)
-    targets = np.broadcast_to(poses[:, None], reached.shape)
-    position = np.linalg.norm(reached[..., :3] - targets[..., :3], axis=-1)
-    return position, orientation_error(targets[..., 3:], reached[..., 3:], geometry.euler)
-
-
-def pose_error_samples(
-    geometry: Geometry,
-    poses: ArrayLike,
-    draws: ArrayLike,
-    mask: ArrayLike | None = None,
-    method: str = "linear",
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Pose error at every pose for every parameter draw.
-
-    Parameters
-    ----------
-    geometry : Geometry
-        The nominal machine (the controller's parameters).
-    poses : array_like, shape (..., 6)
-        Target poses.
-    draws : array_like, shape (D, n)
-        Parameter errors (parameter units), columns the parameters of ``mask``.
-    mask : array_like of bool, shape (48,), optional
-        Default joints and ``l0``.
-    method : {"linear", "exact"}
-        First-order map, or forward kinematics of every perturbed machine.
-
-    Returns
-    -------
-    position : ndarray, shape (..., D), mm
-    orientation : ndarray, shape (..., D), rad
-    """
-    mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
-    poses = as_poses(poses)
-    draws = np.atleast_2d(np.asarray(draws, dtype=float))
-    if draws.shape[1] != int(mask.sum()):
-        raise ValueError(f"draws must have shape (D, {int(mask.sum())}), got {draws.shape}")
-    batch = poses.shape[:-1]
-    flat = poses.reshape(-1, 6)
-    if method == "linear":
-        fn = _linear_errors
-    elif method == "exact":
-        fn = _exact_errors
-    else:
-        raise ValueError(f"unknown method {method!r}; choose linear or exact")
-    pos = np.empty((flat.shape[0], draws.shape[0]))
-    ang = np.empty_like(pos)
-    step = max(1, _CHUNK * 64 // draws.shape[0])
-    for start in range(0, flat.shape[0], step):
-        sl = slice(start, start + step)
-        pos[sl], ang[sl] = fn(geometry, flat[sl], draws, mask)
-    return pos.reshape(batch + (-1,)), ang.reshape(batch + (-1,))
-
-
-# -- maps -----------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
@@ -170,6 +67,21 @@ class LineMap:
     position: NDArray[np.float64]
     orientation: NDArray[np.float64]
 
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python form (for JSON): the sweep and the mean and standard deviation of
+        the errors over the draws, shape (L, P) each (not the draws themselves)."""
+        return {
+            "axis": self.axis,
+            "level_axis": self.level_axis,
+            "values": self.values.tolist(),
+            "levels": self.levels.tolist(),
+            "draws": int(self.position.shape[-1]),
+            "position_mean_mm": self.position.mean(axis=-1).tolist(),
+            "position_sd_mm": self.position.std(axis=-1).tolist(),
+            "orientation_mean_rad": self.orientation.mean(axis=-1).tolist(),
+            "orientation_sd_rad": self.orientation.std(axis=-1).tolist(),
+        }
+
 
 @dataclass(frozen=True)
 class AngleMap:
@@ -194,6 +106,16 @@ class AngleMap:
     poses: NDArray[np.float64]
     position: NDArray[np.float64]
     orientation: NDArray[np.float64]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python form (for JSON): the grid and the mean errors, shape (L, G, G)."""
+        return {
+            "axes": list(self.axes),
+            "values": [v.tolist() for v in self.values],
+            "levels": self.levels.tolist(),
+            "position_mean_mm": self.position.tolist(),
+            "orientation_mean_rad": self.orientation.tolist(),
+        }
 
 
 @dataclass(frozen=True)
@@ -224,6 +146,31 @@ class ErrorMaps:
     method: str
     parameters: tuple[str, ...] = field(default=())
 
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python form (for JSON): settings, the mean maps and the reference poses.
+
+        >>> from hexcal.core import preset
+        >>> maps = error_maps(preset("paper-hmt"), levels=2, points=3, grid=2, draws=4, rng=0, interior=5)
+        >>> data = maps.to_dict()
+        >>> sorted(data), data["settings"]["draws"], len(data["lines"]["x"]["position_mean_mm"])
+        (['angles', 'corners', 'interior', 'lines', 'settings'], 4, 2)
+        """
+        refs = {
+            name: {key: np.asarray(value).tolist() for key, value in ref.items()}
+            for name, ref in (("corners", self.corners), ("interior", self.interior))
+        }
+        return {
+            "settings": {
+                "amplitude_mm": self.amplitude,
+                "draws": self.draws,
+                "method": self.method,
+                "parameters": list(self.parameters),
+            },
+            "lines": {axis: line.to_dict() for axis, line in self.lines.items()},
+            "angles": {name: grid.to_dict() for name, grid in self.angles.items()},
+            **refs,
+        }
+
 
 def _centre(box: NDArray[np.float64]) -> NDArray[np.float64]:
     return box.mean(axis=1)
@@ -236,8 +183,13 @@ def line_sweep_poses(
 
     The other coordinates sit at the centre of the box. Returns the swept values (P,),
     the levels (L,) and the poses (L, P, 6).
+
+    >>> box = [[-1, 1], [-1, 1], [0, 2], [0, 0], [0, 0], [0, 0]]
+    >>> values, levels, poses = line_sweep_poses(box, "x", "z", points=3, levels=2)
+    >>> values.tolist(), levels.tolist(), poses.shape
+    ([-1.0, 0.0, 1.0], [0.0, 2.0], (2, 3, 6))
     """
-    b = np.asarray(box, dtype=float)
+    b = as_box(box)
     k, kl = POSE_NAMES.index(axis), POSE_NAMES.index(level_axis)
     values = np.linspace(b[k, 0], b[k, 1], int(points))
     level_values = np.linspace(b[kl, 0], b[kl, 1], int(levels))
@@ -252,9 +204,15 @@ def angle_grid_poses(
 ) -> tuple[tuple[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64], NDArray[np.float64]]:
     """Poses of a grid over two angles at ``levels`` z levels, shape (L, G, G, 6).
 
-    The other coordinates sit at the centre of the box.
+    The other coordinates sit at the centre of the box. Returns the two angles' values
+    (G,) each, the z levels (L,) and the poses.
+
+    >>> box = [[0, 0], [0, 0], [0, 2], [-0.1, 0.1], [-0.1, 0.1], [0, 0]]
+    >>> (a, b), zs, poses = angle_grid_poses(box, ("a", "b"), grid=3, levels=2)
+    >>> a.tolist(), zs.tolist(), poses.shape
+    ([-0.1, 0.0, 0.1], [0.0, 2.0], (2, 3, 3, 6))
     """
-    b = np.asarray(box, dtype=float)
+    b = as_box(box)
     k1, k2, kz = POSE_NAMES.index(axes[0]), POSE_NAMES.index(axes[1]), 2
     v1 = np.linspace(b[k1, 0], b[k1, 1], int(grid))
     v2 = np.linspace(b[k2, 0], b[k2, 1], int(grid))
@@ -264,26 +222,6 @@ def angle_grid_poses(
     poses[..., k2] = v2[None, None, :]
     poses[..., kz] = zs[:, None, None]
     return (v1, v2), zs, poses
-
-
-def _mean_errors(
-    geometry: Geometry,
-    poses: NDArray[np.float64],
-    draws: NDArray[np.float64],
-    mask: NDArray[np.bool_],
-    method: str,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Mean over draws of the position and orientation error, shape ``poses.shape[:-1]``,
-    block by block so that the draws of a large grid never sit in memory at once."""
-    flat = poses.reshape(-1, 6)
-    pos = np.empty(flat.shape[0])
-    ang = np.empty(flat.shape[0])
-    step = max(1, _CHUNK * 64 // draws.shape[0])
-    for start in range(0, flat.shape[0], step):
-        sl = slice(start, start + step)
-        p, a = pose_error_samples(geometry, flat[sl], draws, mask, method)
-        pos[sl], ang[sl] = p.mean(axis=-1), a.mean(axis=-1)
-    return pos.reshape(poses.shape[:-1]), ang.reshape(poses.shape[:-1])
 
 
 def error_maps(
@@ -327,9 +265,16 @@ def error_maps(
     Returns
     -------
     ErrorMaps
+
+    Examples
+    --------
+    >>> from hexcal.core import preset
+    >>> maps = error_maps(preset("paper-hmt"), levels=2, points=3, grid=2, draws=4, rng=0, interior=5)
+    >>> maps.lines["x"].position.shape, maps.angles["a-b"].position.shape, maps.corners["position"].shape
+    ((2, 3, 4), (2, 2, 2), (64,))
     """
     box = workspace_box(geometry)
-    mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
+    mask = as_mask(mask)
     for name, value, low in (("levels", levels, 1), ("points", points, 2), ("grid", grid, 2)):
         if int(value) < low:
             raise ValueError(f"{name} must be at least {low}, got {value}")
@@ -344,14 +289,12 @@ def error_maps(
     angles: dict[str, AngleMap] = {}
     for pair in ANGLE_PAIRS:
         values2, zs, poses = angle_grid_poses(box, pair, grid, levels)
-        pos, ang = _mean_errors(geometry, poses, sample, mask, method)
+        pos, ang = mean_pose_errors(geometry, poses, sample, mask, method)
         angles["-".join(pair)] = AngleMap(pair, values2, zs, poses, pos, ang)
     refs = {}
     for name, poses in (("corners", box_corners(box)), ("interior", random_interior(box, interior, gen))):
-        pos, ang = _mean_errors(geometry, poses, sample, mask, method)
+        pos, ang = mean_pose_errors(geometry, poses, sample, mask, method)
         refs[name] = {"poses": poses, "position": pos, "orientation": ang}
-    from hexcal.design.identifiability import parameter_names
-
     return ErrorMaps(
         lines=lines,
         angles=angles,
@@ -362,147 +305,3 @@ def error_maps(
         method=method,
         parameters=parameter_names(mask),
     )
-
-
-# -- the paper's claims, in numbers ------------------------------------------------------------
-
-
-def _spearman(x: NDArray[np.float64], y: NDArray[np.float64]) -> float:
-    rx = np.argsort(np.argsort(x)).astype(float)
-    ry = np.argsort(np.argsort(y)).astype(float)
-    rx -= rx.mean()
-    ry -= ry.mean()
-    denom = np.sqrt(np.sum(rx**2) * np.sum(ry**2))
-    return float(np.sum(rx * ry) / denom) if denom > 0 else 0.0
-
-
-def _line_claims(line: LineMap, key: str) -> dict[str, float]:
-    draws = getattr(line, key)  # (L, P, D)
-    mean = draws.mean(axis=-1)  # (L, P)
-    last = mean.shape[1] - 1
-    at_end = np.isin(np.argmax(mean, axis=1), (0, last))
-    at_end_draws = np.isin(np.argmax(draws, axis=1), (0, last))
-    ends = np.maximum(mean[:, 0], mean[:, -1])
-    out = {
-        "max_at_an_end": float(at_end.mean()),
-        "max_at_an_end_single_draws": float(at_end_draws.mean()),
-        "max_at_upper_end": float(np.mean(np.argmax(mean, axis=1) == last)),
-        "end_over_min": float(np.mean(ends / mean.min(axis=1))),
-        "end_over_centre": float(np.mean(ends / mean[:, last // 2])),
-    }
-    level_mean = mean.mean(axis=1)
-    out["level_rank_correlation"] = _spearman(line.levels, level_mean)
-    out["top_level_over_bottom_level"] = float(level_mean[-1] / level_mean[0])
-    return out
-
-
-def _angle_claims(grid: AngleMap, key: str) -> dict[str, float]:
-    values = getattr(grid, key)  # (L, G, G)
-    n_levels, g, _ = values.shape
-    flat = values.reshape(n_levels, -1)
-    i, j = np.unravel_index(np.argmax(flat, axis=1), (g, g))
-    on_edge = (i == 0) | (i == g - 1) | (j == 0) | (j == g - 1)
-    at_corner = ((i == 0) | (i == g - 1)) & ((j == 0) | (j == g - 1))
-    edge = np.ones((g, g), dtype=bool)
-    edge[1:-1, 1:-1] = False
-    level_mean = flat.mean(axis=1)
-    return {
-        "max_on_boundary": float(on_edge.mean()),
-        "max_at_a_corner": float(at_corner.mean()),
-        "boundary_mean_over_inside_mean": float(
-            np.mean(values[:, edge].mean(axis=1) / values[:, ~edge].mean(axis=1))
-        ),
-        "max_over_centre": float(np.mean(flat.max(axis=1) / values[:, g // 2, g // 2])),
-        "level_rank_correlation": _spearman(grid.levels, level_mean),
-        "top_level_over_bottom_level": float(level_mean[-1] / level_mean[0]),
-    }
-
-
-def claims(maps: ErrorMaps) -> dict[str, dict[str, dict[str, float]] | dict[str, float]]:
-    """Numbers that test the seed paper's claims about its error maps.
-
-    Returns
-    -------
-    dict
-        ``lines[axis][position|orientation]``: fraction of curves (mean over draws) whose
-        maximum is at an end of the sweep (``max_at_an_end``; also of single-draw curves
-        and at the upper end), the end value over the curve's minimum and over its centre,
-        and the Spearman rank correlation between the level (z; x for the z sweep) and the
-        curve's mean, with the ratio of the top level's mean to the bottom level's.
-        ``angles[pair][...]``: fraction of z levels whose grid maximum is on the boundary of
-        the angle square (and at one of its corners), boundary over inside mean, maximum
-        over centre, and the z correlation. ``workspace``: mean error at the 64 corners
-        over that at random interior poses, and the corners' mean at the top z over the
-        bottom z.
-    """
-    out: dict = {"lines": {}, "angles": {}, "workspace": {}}
-    for axis, line in maps.lines.items():
-        out["lines"][axis] = {k: _line_claims(line, k) for k in ("position", "orientation")}
-    for name, grid in maps.angles.items():
-        out["angles"][name] = {k: _angle_claims(grid, k) for k in ("position", "orientation")}
-    z = maps.corners["poses"][:, 2]
-    top, bottom = z == z.max(), z == z.min()
-    for key in ("position", "orientation"):
-        c, i = maps.corners[key], maps.interior[key]
-        out["workspace"][key] = {
-            "corners_mean": float(c.mean()),
-            "interior_mean": float(i.mean()),
-            "corners_over_interior": float(c.mean() / i.mean()),
-            "interior_above_corner_mean": float(np.mean(i > c.mean())),
-            "corners_top_z_over_bottom_z": float(c[top].mean() / c[bottom].mean()),
-        }
-    return out
-
-
-def format_claims(summary: dict) -> str:
-    """The numbers of :func:`claims` as a short report on the paper's two claims."""
-    lines_ = ["Boundary claim (errors largest on the workspace boundary):"]
-    for axis, by_key in summary["lines"].items():
-        p, o = by_key["position"], by_key["orientation"]
-        lines_.append(
-            f"  {axis} sweep: max at an end in {p['max_at_an_end']:.0%} (position) / "
-            f"{o['max_at_an_end']:.0%} (orientation) of the mean curves, "
-            f"{p['max_at_an_end_single_draws']:.0%} / {o['max_at_an_end_single_draws']:.0%} of single draws; "
-            f"end / centre = {p['end_over_centre']:.3f} / {o['end_over_centre']:.3f}"
-        )
-    for name, by_key in summary["angles"].items():
-        p, o = by_key["position"], by_key["orientation"]
-        lines_.append(
-            f"  {name} grid: max on the boundary at {p['max_on_boundary']:.0%} / "
-            f"{o['max_on_boundary']:.0%} of z levels (at a corner {p['max_at_a_corner']:.0%} / "
-            f"{o['max_at_a_corner']:.0%}); max / centre = {p['max_over_centre']:.3f} / "
-            f"{o['max_over_centre']:.3f}"
-        )
-    wp, wo = summary["workspace"]["position"], summary["workspace"]["orientation"]
-    lines_.append(
-        f"  64 corners vs random interior poses: {wp['corners_mean']:.4f} vs {wp['interior_mean']:.4f} mm "
-        f"(x{wp['corners_over_interior']:.3f}), {wo['corners_mean'] * 1e3:.4f} vs "
-        f"{wo['interior_mean'] * 1e3:.4f} mrad (x{wo['corners_over_interior']:.3f}); "
-        f"{wp['interior_above_corner_mean']:.0%} / {wo['interior_above_corner_mean']:.0%} of interior "
-        "poses exceed the corners' mean"
-    )
-    lines_.append("Height claim (errors larger at larger z):")
-    for axis in ("x", "y"):
-        p, o = summary["lines"][axis]["position"], summary["lines"][axis]["orientation"]
-        lines_.append(
-            f"  {axis} sweeps: rank correlation of z with the curve mean "
-            f"{p['level_rank_correlation']:+.3f} / {o['level_rank_correlation']:+.3f}; "
-            f"top z / bottom z = {p['top_level_over_bottom_level']:.3f} / "
-            f"{o['top_level_over_bottom_level']:.3f}"
-        )
-    p, o = summary["lines"]["z"]["position"], summary["lines"]["z"]["orientation"]
-    lines_.append(
-        f"  z sweeps: max at the upper end (largest z) in {p['max_at_upper_end']:.0%} / "
-        f"{o['max_at_upper_end']:.0%} of the curves"
-    )
-    for name, by_key in summary["angles"].items():
-        p, o = by_key["position"], by_key["orientation"]
-        lines_.append(
-            f"  {name} grids: top z / bottom z = {p['top_level_over_bottom_level']:.3f} / "
-            f"{o['top_level_over_bottom_level']:.3f}"
-        )
-    lines_.append(
-        f"  corners at the top z / bottom z: {wp['corners_top_z_over_bottom_z']:.3f} / "
-        f"{wo['corners_top_z_over_bottom_z']:.3f}"
-    )
-    return "\n".join(lines_)

@@ -34,7 +34,6 @@ __getattr__, __dir__, __all__ = attach(
         "Table": "tables",
         "VALIDATION_CAPTIONS": "html_pages",
         "WEAK_SINGULAR_VALUE": "text",
-        "analysis_dict": "convert",
         "claims_text": "plan",
         "correlation": "figures_report",
         "data_table": "html",

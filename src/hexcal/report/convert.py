@@ -103,50 +103,6 @@ def validation_dict(calibrated: Any, nominal: Any | None = None) -> dict[str, An
     }
 
 
-def analysis_dict(analysis: Any, n_test: int) -> dict[str, Any]:
-    """The ``hexcal observability --json`` file of a :class:`hexcal.design.PoseSetAnalysis`.
-
-    ``n_test`` is the number of test poses (0: no ``test_poses`` entry).
-    """
-    out: dict[str, Any] = {
-        "n_poses": analysis.n_poses,
-        "n_parameters": len(analysis.names),
-        "rank": analysis.rank,
-        **analysis.indices.as_dict(),
-        "weighted": analysis.weighted,
-        "unidentifiable": analysis.unidentifiable,
-        "method": analysis.method,
-        "noise": {
-            "leg": analysis.noise.leg,
-            "position": analysis.noise.position,
-            "orientation": analysis.noise.orientation,
-            "distribution": analysis.noise.distribution,
-            "sigmas": list(analysis.noise.sigmas),
-        },
-        "predicted_mean_abs_error_mm": {
-            "estimator": float(analysis.mean_error_estimator),
-            "bound": float(analysis.mean_error_bound),
-        },
-        "parameters": {
-            name: {"std_estimator": float(se), "std_bound": float(sb)}
-            for name, se, sb in zip(analysis.names, analysis.std_estimator, analysis.std_bound, strict=True)
-        },
-    }
-    out["condition_number"] = float(analysis.indices.condition_number)
-    if n_test:
-        pos, rot = analysis.test_position_rms, analysis.test_orientation_rms
-        out["test_poses"] = {
-            "n": n_test,
-            "position_rms_mm": [float(v) for v in pos],
-            "orientation_rms_rad": [float(v) for v in rot],
-            "position_rms_mean_mm": float(np.mean(pos)),
-            "position_rms_max_mm": float(np.max(pos)),
-            "orientation_rms_mean_rad": float(np.mean(rot)),
-            "orientation_rms_max_rad": float(np.max(rot)),
-        }
-    return out
-
-
 def _pose_error_stats(errors: dict[str, NDArray[np.float64]]) -> dict[str, float]:
     """Per-trial max averaged over trials, and RMS over all poses of all trials."""
     out: dict[str, float] = {}

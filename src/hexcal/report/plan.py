@@ -22,7 +22,7 @@ def _finite(value: float | None) -> bool:
 def observability_text(data: dict[str, Any], fit: str = "joints,l0") -> str:
     """The text report of ``hexcal observability``.
 
-    ``data`` is :func:`hexcal.report.analysis_dict` of the analysis; ``fit`` names the
+    ``data`` is :meth:`hexcal.design.PoseSetAnalysis.to_dict` of the analysis; ``fit`` names the
     parameter groups in the heading.
     """
     n = data["n_parameters"]
