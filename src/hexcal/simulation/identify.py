@@ -116,7 +116,8 @@ def campaign_bounds(
     if true is not None:
         if ok.all():
             return bound_mean_abs_error(true, reached, noise)
-        out[ok] = bound_mean_abs_error(true, reached[ok], noise)
+        if ok.any():
+            out[ok] = bound_mean_abs_error(true, reached[ok], noise)
         return out
     for t in np.flatnonzero(ok):  # a different machine in every trial
         out[t] = bound_mean_abs_error(nominal.with_vector(true_vectors[t]), reached[t : t + 1], noise)[0]

@@ -9,6 +9,7 @@ trials run through :func:`hexcal.simulation.runner.map_trials`.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -112,6 +113,11 @@ class PaperExperiment:
         >>> summary["seed"], summary["trials"], summary["failures"]
         (0, 2, {'interior': 0, 'boundary': 0})
         """
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # every trial failed: NaN, counted
+            return self._summary(meta)
+
+    def _summary(self, meta: dict[str, Any]) -> dict[str, Any]:
         errors = self.mean_abs_errors()
         summary: dict[str, Any] = dict(meta)
         bounds = {}
