@@ -313,16 +313,8 @@ def run_paper_experiment(
         rows,
         selected,
     )
-    out = map_trials(
-        paper_trials,
-        definition,
-        trials,
-        jobs=jobs,
-        executor=executor,
-        chunk_size=chunk_size,
-        progress=progress,
-        weight=len(rows),
-    )
+    schedule = {"jobs": jobs, "executor": executor, "chunk_size": chunk_size, "progress": progress}
+    out = map_trials(paper_trials, definition, trials, weight=len(rows), **schedule)
     return PaperExperiment(
         nominal_vector=nominal.to_vector(),
         true_vectors=out["true_vectors"],

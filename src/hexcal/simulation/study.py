@@ -247,16 +247,8 @@ def run_study(
         parameter_error,
     )
     cells = definition.cells()
-    out = map_trials(
-        study_trials,
-        definition,
-        trials,
-        jobs=jobs,
-        executor=executor,
-        chunk_size=chunk_size,
-        progress=progress,
-        weight=len(cells),
-    )
+    schedule = {"jobs": jobs, "executor": executor, "chunk_size": chunk_size, "progress": progress}
+    out = map_trials(study_trials, definition, trials, weight=len(cells), **schedule)
     return [
         StudyCell(
             s_name,
