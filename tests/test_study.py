@@ -216,3 +216,10 @@ def test_unreachable_campaigns_are_failed_trials_of_their_cell():
         row = cell.row()
         assert row["failures"] == 3
         assert np.isnan(row["error_mean"])
+
+
+def test_study_result_to_dict_is_the_json_of_the_cells(study):
+    data = study.to_dict(trials=12, seed=5)
+    assert list(data) == ["trials", "seed", "cells"]
+    assert json.dumps(data["cells"]) == json.dumps([c.row() for c in study])
+    assert isinstance(study, list)

@@ -27,6 +27,7 @@ __getattr__, __dir__, __all__ = attach(
         "SerialExecutor": "runner",
         "StudyCell": "study",
         "StudyDefinition": "study",
+        "StudyResult": "study",
         "TrialSeeds": "protocol",
         "campaign_bounds": "identify",
         "chunk_indices": "runner",

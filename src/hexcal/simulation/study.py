@@ -16,6 +16,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -115,6 +116,21 @@ class StudyCell:
         }
 
 
+class StudyResult(list[StudyCell]):
+    """The cells of a study (a list of :class:`StudyCell`) and their JSON form.
+
+    Examples
+    --------
+    >>> cell = StudyCell("corners", 15, "paper", "ml", *np.ones((4, 2)))
+    >>> StudyResult([cell]).to_dict(trials=2)["cells"][0]["error_mean"]
+    1.0
+    """
+
+    def to_dict(self, **meta: Any) -> dict[str, Any]:
+        """``meta`` (trials, seed, noise, ...) and ``cells``, the rows of the cells (``study.json``)."""
+        return {**meta, "cells": [cell.to_dict() for cell in self]}
+
+
 @dataclass(frozen=True)
 class StudyDefinition:
     """Everything a chunk of trials of a study needs (picklable)."""
@@ -187,7 +203,7 @@ def run_study(
     *,
     executor: Executor | None = None,
     chunk_size: int | None = None,
-) -> list[StudyCell]:
+) -> StudyResult:
     """Run a study (see the module docstring).
 
     Parameters
@@ -222,9 +238,10 @@ def run_study(
 
     Returns
     -------
-    list of StudyCell
-        One per (strategy, poses, noise, method), in that nesting order. A trial whose
-        simulated machine cannot reach a commanded pose counts as failed (NaN).
+    StudyResult
+        A list of :class:`StudyCell`, one per (strategy, poses, noise, method), in that
+        nesting order. A trial whose simulated machine cannot reach a commanded pose
+        counts as failed (NaN).
 
     Examples
     --------
@@ -249,7 +266,7 @@ def run_study(
     cells = definition.cells()
     schedule = {"jobs": jobs, "executor": executor, "chunk_size": chunk_size, "progress": progress}
     out = map_trials(study_trials, definition, trials, weight=len(cells), **schedule)
-    return [
+    return StudyResult(
         StudyCell(
             s_name,
             n,
@@ -261,7 +278,7 @@ def run_study(
             out[f"{k}:orientation_rms"],
         )
         for k, (_, s_name, n, _, z_name, _, method) in enumerate(cells)
-    ]
+    )
 
 
 def format_study(cells: list[StudyCell]) -> str:
