@@ -333,3 +333,29 @@ def test_to_dict_is_the_reports_paper_summary(experiment):
     meta = {"seed": SEED, "nominal": "paper-hmt", "noise": {"leg": 0.01}}
     assert experiment.to_dict(**meta) == paper_summary(experiment, **meta)
     assert list(experiment.to_dict(**meta))[:3] == ["seed", "nominal", "noise"]
+
+
+def _sleepy_chunk(definition, idx):
+    import time
+
+    time.sleep(definition)
+    return {"value": idx}
+
+
+def _interrupt(done, total):
+    raise KeyboardInterrupt
+
+
+def test_map_trials_interrupted_stops_its_worker_processes():
+    import multiprocessing
+    import time
+
+    from hexcal.simulation import map_trials
+
+    with pytest.raises(KeyboardInterrupt):
+        map_trials(_sleepy_chunk, 4.0, 8, jobs=2, chunk_size=1, progress=_interrupt)
+    # the workers would otherwise go on with the chunks already handed to them (4 s each)
+    deadline = time.monotonic() + 2.0
+    while multiprocessing.active_children() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not multiprocessing.active_children()

@@ -127,7 +127,12 @@ def map_trials(
     pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(chunks)))
     try:
         out = _collect(pool, fn, definition, chunks, trials, progress, weight)
-    except BaseException:  # errors and KeyboardInterrupt: drop the queued chunks at once
+    except BaseException as exc:  # errors and KeyboardInterrupt: drop the queued chunks at once
+        if isinstance(exc, KeyboardInterrupt):
+            # else the workers would still finish the chunks already handed to them
+            workers = getattr(pool, "_processes", None) or {}
+            for process in list(workers.values()):
+                process.terminate()
         pool.shutdown(wait=False, cancel_futures=True)
         raise
     pool.shutdown()
