@@ -197,11 +197,6 @@ class CampaignData:
     reached: NDArray[np.float64]
     measured: NDArray[np.float64]
 
-    @property
-    def reachable(self) -> NDArray[np.bool_]:
-        """Whether every pose of a trial was reached, shape (T,)."""
-        return ~np.any(np.isnan(self.reached), axis=(1, 2))
-
     def dataset(self, trial: int, poses: slice = slice(None)) -> Measurements:
         """The measurements of one trial (optionally a slice of its poses)."""
         return Measurements(self.measured[trial, poses], self.readings[trial, poses])
