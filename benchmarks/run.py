@@ -246,7 +246,7 @@ def bench_fk(report: Report, nominal: Geometry, quick: bool) -> None:
 def simulated_corner_data(
     nominal: Geometry, true: Geometry, n_poses: int, rng: np.random.Generator, noise: NoiseModel
 ) -> Measurements:
-    """One noisy data set from random workspace corners, following hexcal.simulation.campaign.
+    """One noisy data set from random workspace corners, following hexcal.simulation.
 
     Readings come from the nominal inverse kinematics; the true machine reaches the
     forward kinematics of ``l0 + g dl + e`` (leg sensor error ``e``); the measured
@@ -307,7 +307,7 @@ def bench_identify(report: Report, nominal: Geometry, quick: bool) -> None:
 
 def bench_ml(report: Report, nominal: Geometry, quick: bool) -> None:
     """Maximum-likelihood identification (issue 5): 15 corners, and 1000 random workspace poses."""
-    from hexcal.simulation.campaign import simulate_measurements
+    from hexcal.simulation import simulate_measurements
 
     header("maximum likelihood: identify_ml(paper-hmt, noisy data of paper-hmt-true), 42 parameters")
     true = preset("paper-hmt-true")
@@ -355,7 +355,7 @@ def bench_identify_cli(report: Report, nominal: Geometry, quick: bool) -> None:
     import tempfile
 
     from hexcal.io import write_measurements
-    from hexcal.simulation.campaign import simulate_measurements
+    from hexcal.simulation import simulate_measurements
 
     exe = hexcal_executable()
     header(f"command line: {exe} identify (default method) on simulated measurement files")

@@ -34,13 +34,14 @@ import argparse
 import json
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
+from hexcal.core import NoiseModel
 from hexcal.core.geometry import Geometry
-from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_interior
 from hexcal.design import (
@@ -53,11 +54,9 @@ from hexcal.design import (
     random_subsets,
     select_poses,
 )
-from hexcal.errors import IdentificationError
-from hexcal.estimation.bounds import cramer_rao_covariance
-from hexcal.estimation.fitting import estimate
+from hexcal.estimation import cramer_rao_covariance
 from hexcal.report import claims_text as format_claims
-from hexcal.simulation.campaign import simulate_measurements
+from hexcal.simulation import TrialSeeds, identify_trials, map_trials, simulate_campaigns, true_machines
 
 N_POSES = 15
 GROWTH_PREDICTED = (7, 8, 9, 10, 12, 15, 20, 25, 30, 35, 40, 45, 50, 55, 60, 64)
@@ -90,6 +89,42 @@ def strategies(nominal: Geometry, seed: int) -> tuple[dict[str, Strategy], dict[
     return out, fixed
 
 
+@dataclass(frozen=True)
+class Campaigns:
+    """One strategy's Monte Carlo trials: the definition the runner hands to each chunk."""
+
+    nominal: Geometry
+    true: Geometry
+    strategy: Strategy
+    n: int
+    seeds: TrialSeeds
+    noise: NoiseModel
+
+
+def campaign_trials(d: Campaigns, indices: NDArray[np.intp]) -> dict[str, NDArray[np.float64]]:
+    """Simulate and identify the trials ``indices``, and the predictions of their errors."""
+    rngs = [d.seeds.generator(t) for t in indices]
+    poses = np.stack([d.strategy(d.n, rng) for rng in rngs])
+    leg = np.stack([d.noise.leg_errors(rng, (d.n,)) for rng in rngs])
+    pose = np.stack([d.noise.pose_errors(rng, (d.n,)) for rng in rngs])
+    truth, machines = true_machines(d.nominal, d.true, rngs, 0.0)
+    campaign = simulate_campaigns(d.nominal, machines, poses, leg, pose)
+    vectors = identify_trials(d.nominal, campaign, slice(None), "length", None)
+    quiet = np.zeros_like(leg)
+    reached = simulate_campaigns(d.nominal, machines, poses, quiet, quiet).reached
+    out = {
+        "error": np.mean(np.abs(vectors - truth), axis=1),
+        "planned": np.full(len(indices), np.nan),
+        "hindsight": np.full(len(indices), np.nan),
+        "bound": np.full(len(indices), np.nan),
+    }
+    for k in np.flatnonzero(~np.isnan(out["error"])):
+        out["planned"][k] = mean_abs_error(least_squares_covariance(d.nominal, poses[k], d.noise))
+        out["bound"][k] = mean_abs_error(cramer_rao_covariance(d.nominal, poses[k], d.noise))
+        out["hindsight"][k] = mean_abs_error(least_squares_covariance(d.true, reached[k], d.noise))
+    return out
+
+
 def run_trials(
     nominal: Geometry,
     true: Geometry,
@@ -100,33 +135,18 @@ def run_trials(
     noise: NoiseModel,
 ) -> dict[str, float]:
     """Monte Carlo of one strategy: empirical and predicted mean absolute errors."""
-    truth = true.to_vector()
-    errors, planned, hindsight, bound = [], [], [], []
-    failures = 0
-    quiet = NoiseModel(0.0, 0.0, 0.0)
-    for child in np.random.SeedSequence(seed).spawn(trials):
-        rng = np.random.default_rng(child)
-        poses = strategy(n, rng)
-        data = simulate_measurements(nominal, true, poses, noise, rng)
-        try:
-            values = estimate(nominal, data, "length", with_bound=False).values
-        except IdentificationError:
-            failures += 1
-            continue
-        errors.append(np.mean(np.abs(values - truth)))
-        planned.append(mean_abs_error(least_squares_covariance(nominal, poses, noise)))
-        bound.append(mean_abs_error(cramer_rao_covariance(nominal, poses, noise)))
-        reached = simulate_measurements(nominal, true, poses, quiet, rng).poses
-        hindsight.append(mean_abs_error(least_squares_covariance(true, reached, noise)))
-    errors_arr = np.array(errors)
+    definition = Campaigns(nominal, true, strategy, n, TrialSeeds.from_seed(seed), noise)
+    res = map_trials(campaign_trials, definition, trials)  # in this process: strategies are lambdas
+    ok = ~np.isnan(res["error"])
+    errors_arr = res["error"][ok]
     return {
         "trials": trials,
-        "failures": failures,
+        "failures": int(np.sum(~ok)),
         "empirical": float(errors_arr.mean()),
         "empirical_se": float(errors_arr.std(ddof=1) / np.sqrt(errors_arr.size)),
-        "predicted_planning": float(np.mean(planned)),
-        "predicted_hindsight": float(np.mean(hindsight)),
-        "bound_planning": float(np.mean(bound)),
+        "predicted_planning": float(np.mean(res["planned"][ok])),
+        "predicted_hindsight": float(np.mean(res["hindsight"][ok])),
+        "bound_planning": float(np.mean(res["bound"][ok])),
     }
 
 

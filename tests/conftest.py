@@ -1,6 +1,6 @@
 """Shared fixtures: the seed paper's machine and simulated measurements.
 
-``simulate_measurements`` follows the protocol of :mod:`hexcal.simulation.campaign` (and of the
+``simulate_measurements`` follows the protocol of :mod:`hexcal.simulation` (and of the
 seed paper's section VI): leg readings come from the nominal inverse kinematics, the
 true machine reaches the forward kinematics of its own parameters at those readings
 (plus the leg sensor error), and the measured pose is that plus the measurement noise.

@@ -277,7 +277,7 @@ def test_predicted_error_matches_identify_by_monte_carlo(nominal, true_machine, 
     commanded corners; predicted at the poses it really reaches, the sandwich covariance
     gives the Monte Carlo mean error within its standard error (about 2 % with 200 trials).
     """
-    from hexcal.simulation.campaign import simulate_measurements
+    from hexcal.simulation import simulate_measurements
 
     reached = simulate_measurements(nominal, true_machine, corner_poses, NoiseModel(0, 0, 0)).poses
     predicted = mean_abs_error(least_squares_covariance(true_machine, reached))

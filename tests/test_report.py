@@ -128,7 +128,15 @@ def test_paper_table_from_a_summary_dict():
         "std": {"before": 0.1, "boundary": 0.05},
         "bound": {"boundary": {"bound": 0.3, "efficiency": 1.27}},
         "failures": {"boundary": 0},
-        "validation": {"before": stats, "after": stats},
+        "paper": {"before": 2.6652, "interior": 0.7236, "boundary": 0.3752},
+        "validation": {
+            "before": stats,
+            "after": stats,
+            "paper": {
+                "before": {"position": "15 mm", "orientation": "0.05 rad"},
+                "after": {"position": "-", "orientation": "-"},
+            },
+        },
     }
     lines = render("paper", summary).splitlines()
     assert lines[0].startswith("Table I: mean absolute error of the 42 parameters (mm), 10 trials")

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
+from hexcal.core import NoiseModel, pose_errors
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
-from hexcal.core.noise import NoiseModel
-from hexcal.simulation.campaign import PaperExperiment, identify_batch, pose_errors, run_paper_experiment
+from hexcal.simulation import PaperExperiment, identify_batch, run_paper_experiment
 
 TRIALS = 40
 SEED = 2009
@@ -216,3 +216,147 @@ def test_normal_noise_uses_the_values_as_standard_deviations():
 def test_noise_model_rejects_bad_values(kwargs):
     with pytest.raises(ValueError):
         NoiseModel(**kwargs)
+
+
+# -- one seeding scheme, one runner (issue 8, item 5) ------------------------------------------
+
+
+def test_trial_seeds_reproduce_both_former_schemes():
+    from hexcal.simulation import TrialSeeds
+
+    seeds = TrialSeeds.from_seed(SEED)
+    # the paper's: trial t's generator is child t of SeedSequence(seed).spawn(trials)
+    for t, child in enumerate(np.random.SeedSequence(SEED).spawn(4)):
+        assert_array_equal(seeds.generator(t).random(5), np.random.default_rng(child).random(5))
+    # the study's: SeedSequence(entropy, spawn_key=(t, s_index, n, z_index)) per cell
+    entropy = np.random.SeedSequence(SEED).entropy
+    legacy = np.random.default_rng(np.random.SeedSequence(entropy, spawn_key=(3, 1, 15, 0)))
+    assert_array_equal(seeds.generator(3, 1, 15, 0).random(5), legacy.random(5))
+    # a SeedSequence seed keeps its own spawn key; None draws fresh entropy, then is fixed
+    parent = np.random.SeedSequence(5, spawn_key=(2,))
+    assert_array_equal(
+        TrialSeeds.from_seed(parent).generator(1).random(3),
+        np.random.default_rng(parent.spawn(2)[1]).random(3),
+    )
+    fresh = TrialSeeds.from_seed(None)
+    assert_array_equal(fresh.generator(0).random(3), fresh.generator(0).random(3))
+
+
+def test_map_trials_reassembles_by_trial_index_whatever_the_completion_order():
+    from concurrent.futures import Future
+
+    from hexcal.simulation import SerialExecutor, chunk_indices, map_trials
+
+    class Reversed:
+        """Completes the futures in reverse order of submission."""
+
+        def __init__(self) -> None:
+            self.calls: list[tuple] = []
+            self.futures: list[Future] = []
+
+        def submit(self, fn, *args):
+            self.calls.append((fn, args))
+            future = Future()
+            self.futures.append(future)
+            if len(self.futures) == 3:
+                for (f, a), fut in zip(reversed(self.calls), reversed(self.futures), strict=True):
+                    fut.set_result(f(*a))
+            return future
+
+    calls = []
+    executor = Reversed()
+    out = map_trials(
+        _chunk_of_squares,
+        10,
+        9,
+        executor=executor,
+        chunk_size=3,
+        progress=lambda d, n: calls.append((d, n)),
+        weight=2,
+    )
+    assert_array_equal(out["square"], np.arange(9) ** 2 + 10)
+    assert_array_equal(out["pair"], np.stack([np.arange(9), -np.arange(9)], axis=1))
+    assert len(executor.calls) == 3
+    assert calls == [(6, 18), (12, 18), (18, 18)]
+    assert [len(c) for c in chunk_indices(201, jobs=2)] == [26] * 7 + [19]
+    assert map_trials(_chunk_of_squares, 0, 0) == {}
+    failed = SerialExecutor().submit(_chunk_of_squares, 0, "not an array")
+    with pytest.raises(TypeError):
+        failed.result()
+
+
+def _chunk_of_squares(offset, idx):
+    return {"square": idx**2 + offset, "pair": np.stack([idx, -idx], axis=1)}
+
+
+def _failing_chunk(definition, idx):
+    if 5 in idx:
+        raise ValueError("trial 5 failed")
+    return {"value": idx}
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_map_trials_errors_propagate_and_the_pool_is_shut_down(jobs):
+    from hexcal.simulation import map_trials
+
+    with pytest.raises(ValueError, match="trial 5"):
+        map_trials(_failing_chunk, None, 40, jobs=jobs, chunk_size=2)
+
+
+def test_paper_experiment_does_not_depend_on_chunks_or_processes(nominal):
+    kwargs = {"trials": 5, "rng": 11, "extra_rows": (("boundary_ml", "boundary", "ml"),)}
+    base = run_paper_experiment(nominal, None, chunk_size=5, **kwargs)
+    for options in ({"chunk_size": 1}, {"chunk_size": 2, "jobs": 2}, {"jobs": 2}):
+        other = run_paper_experiment(nominal, None, **options, **kwargs)
+        _assert_same_experiment(base, other)
+        assert_array_equal(other.extra["boundary_ml"], base.extra["boundary_ml"])
+        for key, bound in base.bounds.items():
+            assert_array_equal(other.bounds[key], bound)
+
+
+def test_an_unreachable_campaign_fails_its_trials_not_the_experiment(nominal, true_machine):
+    # leg offsets of metres: the simulated machine cannot assemble at the commanded poses
+    vector = true_machine.to_vector()
+    vector[36:42] -= 5000.0
+    broken = true_machine.with_vector(vector)
+    result = run_paper_experiment(nominal, broken, trials=3, rng=0)
+    assert result.failures == {"interior": 3, "boundary": 3}
+    assert np.all(np.isnan(result.boundary_vectors))
+    assert np.all(np.isnan(result.validation_after["position"]))
+    summary = result.to_dict()
+    assert summary["failures"] == {"interior": 3, "boundary": 3}
+
+
+def test_to_dict_is_the_table1_schema(experiment):
+    meta = {"seed": SEED, "nominal": "paper-hmt", "noise": {"leg": 0.01}}
+    summary = experiment.to_dict(**meta)
+    assert list(summary)[:3] == ["seed", "nominal", "noise"]
+    for key in ("trials", "method", "before", "interior", "boundary", "rows", "std", "bound", "failures"):
+        assert key in summary
+    assert summary["before"] == pytest.approx(float(np.mean(experiment.mean_abs_errors()["before"])))
+
+
+def _sleepy_chunk(definition, idx):
+    import time
+
+    time.sleep(definition)
+    return {"value": idx}
+
+
+def _interrupt(done, total):
+    raise KeyboardInterrupt
+
+
+def test_map_trials_interrupted_stops_its_worker_processes():
+    import multiprocessing
+    import time
+
+    from hexcal.simulation import map_trials
+
+    with pytest.raises(KeyboardInterrupt):
+        map_trials(_sleepy_chunk, 4.0, 8, jobs=2, chunk_size=1, progress=_interrupt)
+    # the workers would otherwise go on with the chunks already handed to them (4 s each)
+    deadline = time.monotonic() + 2.0
+    while multiprocessing.active_children() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not multiprocessing.active_children()

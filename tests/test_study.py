@@ -10,8 +10,7 @@ import pytest
 from hexcal.cli import main
 from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
-from hexcal.simulation.campaign import run_paper_experiment
-from hexcal.simulation.study import fixed_strategy, run_study
+from hexcal.simulation import fixed_strategy, run_paper_experiment, run_study
 
 
 @pytest.fixture(scope="module")
@@ -182,3 +181,45 @@ def test_simulate_selected_strategy_beats_random_corners(capsys):
     ]
     bound = {r[0]: float(r[6]) for r in rows}
     assert bound["selected"] < 0.8 * bound["corners"]
+
+
+def test_study_does_not_depend_on_chunks_or_processes(study):
+    nominal, true = preset("paper-hmt"), preset("paper-hmt-true")
+    kwargs = {
+        "methods": ("paper", "ml"),
+        "pose_counts": (15, 30),
+        "noises": {"paper": NoiseModel(), "none": NoiseModel(0, 0, 0)},
+        "trials": 12,
+        "rng": 5,
+    }
+    poses = {15: preset("paper-hmt").workspace[:, 0] + np.zeros((15, 6))}
+    for options in ({"chunk_size": 5}, {"chunk_size": 1, "jobs": 2}):
+        again = run_study(nominal, true, **options, **kwargs)
+        for a, b in zip(study, again, strict=True):
+            assert (a.strategy, a.n_poses, a.noise, a.method) == (b.strategy, b.n_poses, b.noise, b.method)
+            for name in ("errors", "bounds", "position_rms", "orientation_rms"):
+                np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+            assert json.dumps(a.to_dict()) == json.dumps(a.row())  # NaN != NaN
+    # the fixed strategy is picklable: it runs in worker processes too
+    strategies = {"fixed": fixed_strategy(poses)}
+    one = run_study(nominal, None, ("length",), strategies, (15,), trials=4, rng=2)
+    two = run_study(nominal, None, ("length",), strategies, (15,), trials=4, rng=2, jobs=2, chunk_size=1)
+    np.testing.assert_array_equal(one[0].errors, two[0].errors)
+
+
+def test_unreachable_campaigns_are_failed_trials_of_their_cell():
+    nominal = preset("paper-hmt")
+    vector = nominal.to_vector()
+    vector[36:42] -= 5000.0
+    cells = run_study(nominal, nominal.with_vector(vector), methods=("length",), trials=3, rng=0)
+    for cell in cells:
+        row = cell.row()
+        assert row["failures"] == 3
+        assert np.isnan(row["error_mean"])
+
+
+def test_study_result_to_dict_is_the_json_of_the_cells(study):
+    data = study.to_dict(trials=12, seed=5)
+    assert list(data) == ["trials", "seed", "cells"]
+    assert json.dumps(data["cells"]) == json.dumps([c.row() for c in study])
+    assert isinstance(study, list)

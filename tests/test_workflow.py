@@ -1,6 +1,6 @@
 """Calibrating a real machine from measurement files, at the library level.
 
-The workflow: measure poses (here simulated with :func:`hexcal.simulation.campaign.simulate_measurements`,
+The workflow: measure poses (here simulated with :func:`hexcal.simulation.simulate_measurements`,
 the seed paper's protocol), write and read them as measurement files (:mod:`hexcal.io`),
 identify, check the fit for gross errors, validate on held-out poses, and compensate targets.
 
@@ -40,7 +40,7 @@ from hexcal.estimation.validation import validate
 from hexcal.io import read_measurements, write_measurements
 from hexcal.models.pose import Measurements
 from hexcal.report.text import format_identification_report, identification_summary
-from hexcal.simulation.campaign import simulate_measurements
+from hexcal.simulation import simulate_measurements
 
 NOMINAL = preset("paper-hmt")
 TRUE = preset("paper-hmt-true")

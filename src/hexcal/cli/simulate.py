@@ -117,7 +117,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
 def cmd_paper(args: argparse.Namespace) -> None:
     """The seed paper's experiment by Monte Carlo: Table I and Figs. 10-11."""
     from hexcal.design.planning import optimal_poses
-    from hexcal.report import paper_summary, render
+    from hexcal.report import render
     from hexcal.simulation import run_paper_experiment
 
     nominal = load_geometry(args.geometry)
@@ -145,8 +145,7 @@ def cmd_paper(args: argparse.Namespace) -> None:
         extra_rows=(("boundary_ml", "boundary", "ml"), ("selected_ml", "selected", "ml")),
         selected_poses=selected,
     )
-    summary = paper_summary(
-        experiment,
+    summary = experiment.to_dict(
         seed=args.seed,
         nominal=nominal.name or args.geometry,
         true_machine=true.name if true else "random",

@@ -385,7 +385,23 @@ def forward_kinematics(
 def pose_errors(
     targets: ArrayLike, reached: ArrayLike, euler: str
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Position error (mm) and orientation error (rad, rotation angle) of each pose ``(..., 6)``."""
+    """Position error (mm) and orientation error (rad, rotation angle) of each pose.
+
+    ``targets`` and ``reached`` of shape ``(..., 6)``; NaN errors where ``reached`` is NaN.
+
+    Examples
+    --------
+    >>> position, angle = pose_errors(np.zeros((1, 6)), np.array([[3.0, 4, 0, 0, 0, 0]]), "xyz")
+    >>> float(position[0]), float(angle[0])
+    (5.0, 0.0)
+    """
     targets, reached = np.asarray(targets, dtype=float), np.asarray(reached, dtype=float)
     position = np.linalg.norm(reached[..., :3] - targets[..., :3], axis=-1)
-    return position, orientation_error(targets[..., 3:], reached[..., 3:], euler)
+    finite = np.all(np.isfinite(reached), axis=-1)
+    if finite.all():
+        return position, orientation_error(targets[..., 3:], reached[..., 3:], euler)
+    orientation = np.full(finite.shape, np.nan)  # NaN where not reached
+    if finite.any():
+        target = np.broadcast_to(targets, reached.shape)
+        orientation[finite] = orientation_error(target[finite][:, 3:], reached[finite][:, 3:], euler)
+    return position, orientation

@@ -14,8 +14,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.report.text import PAPER_TABLE1, PAPER_VALIDATION, ROW_LABELS
-
 
 def identification_dict(
     result: Any, outliers: tuple[str, ...] = (), flagged: tuple[str, ...] = ()
@@ -112,44 +110,6 @@ def _pose_error_stats(errors: dict[str, NDArray[np.float64]]) -> dict[str, float
         out[f"{key}_rms"] = float(np.sqrt(np.nanmean(e**2)))
         out[f"{key}_max_worst"] = float(np.nanmax(e))
     return out
-
-
-def paper_summary(experiment: Any, **meta: Any) -> dict[str, Any]:
-    """The Table I reproduction as a JSON-ready mapping (the ``hexcal paper`` table1.json).
-
-    ``experiment`` is a :class:`hexcal.simulation.PaperExperiment`. Every row
-    (``interior``, ``boundary`` and any extra rows) has its mean absolute parameter error
-    (mm) as a top-level number, its standard deviation over trials in ``std``, and, under
-    ``bound``, the Cramér–Rao bound of that error and the efficiency (error / bound).
-    """
-    errors = experiment.mean_abs_errors()
-    summary: dict[str, Any] = dict(meta)
-    bounds = {}
-    for row in errors:
-        b = experiment.bound_of(row)
-        if b is not None:
-            bound = float(np.mean(b))
-            bounds[row] = {"bound": bound, "efficiency": float(np.nanmean(errors[row])) / bound}
-    summary.update(
-        {
-            "trials": experiment.trials,
-            "method": experiment.method,
-            **{row: float(np.nanmean(values)) for row, values in errors.items()},
-            "rows": {row: ROW_LABELS.get(row, row) for row in errors},
-            "std": {k: float(np.nanstd(v)) for k, v in errors.items()},
-            "bound": bounds,
-            "failures": experiment.failures,
-            "paper": dict(PAPER_TABLE1),
-            "validation": {
-                "before": _pose_error_stats(experiment.validation_before),
-                "after": _pose_error_stats(experiment.validation_after),
-                "paper": PAPER_VALIDATION,
-                "statistics": "max: per-trial maximum over the validation poses, averaged over "
-                "trials; rms: over all validation poses of all trials; max_worst: over all",
-            },
-        }
-    )
-    return summary
 
 
 def paper_figure_data(experiment: Any) -> dict[str, Any]:

@@ -8,21 +8,13 @@ from __future__ import annotations
 import math
 from typing import Any
 
-#: The seed paper's Table I (mean absolute parameter error, mm) and its validation claims.
-PAPER_TABLE1 = {"before": 2.6652, "interior": 0.7236, "boundary": 0.3752}
-PAPER_VALIDATION = {
-    "before": {"position": "about 15 mm", "orientation": "about 0.05 rad"},
-    "after": {"position": "below 0.03 mm", "orientation": "below 3e-6 rad"},
-}
 
-#: Labels of the rows of ``hexcal paper``.
-ROW_LABELS = {
-    "before": "before calibration",
-    "interior": "15 random poses inside the workspace",
-    "boundary": "15 of the 64 corners",
-    "boundary_ml": "15 of the 64 corners, maximum likelihood",
-    "selected_ml": "15 optimally selected poses, max. likelihood",
-}
+def _label(method: str) -> str:
+    """What an estimator minimises, from the estimator registry."""
+    from hexcal.estimation.registry import ESTIMATORS  # names and labels only: no numpy
+
+    return ESTIMATORS[method].label if method in ESTIMATORS else method
+
 
 #: Correlations above this magnitude are listed in the report.
 CORRELATION_REPORT = 0.9
@@ -31,13 +23,6 @@ CORRELATION_REPORT = 0.9
 #: warning (the parameter combination is determined ~1e4 times worse than the best).
 WEAK_SINGULAR_VALUE = 1e-4
 
-#: What each estimator minimises, for the report.
-METHOD_DESCRIPTIONS = {
-    "ml": "maximum likelihood (errors in variables)",
-    "gls": "generalised least squares (propagated pose covariance)",
-    "length": "least squares on leg lengths",
-    "paper": "least squares on squared leg lengths (the seed paper's eq. 3)",
-}
 
 
 def paper_text(summary: dict[str, Any]) -> str:
@@ -51,7 +36,8 @@ def paper_text(summary: dict[str, Any]) -> str:
     for key, label in summary["rows"].items():
         bound = summary["bound"].get(key)
         b_text = f"{bound['bound']:>9.4f}{bound['efficiency']:>7.2f}" if bound else f"{'':>16}"
-        paper = f"{PAPER_TABLE1[key]:>9.4f}" if key in PAPER_TABLE1 else f"{'-':>9}"
+        reference = summary.get("paper", {})
+        paper = f"{reference[key]:>9.4f}" if key in reference else f"{'-':>9}"
         lines.append(f"  {label:<46}{summary[key]:>12.4f}{summary['std'][key]:>9.4f}{b_text}{paper}")
     lines.append(
         "  (bound: Cramér–Rao bound of the mean absolute error for the same poses and noise; "
@@ -68,7 +54,7 @@ def paper_text(summary: dict[str, Any]) -> str:
     ]
     for key in ("before", "after"):
         v = val[key]
-        paper = PAPER_VALIDATION[key]
+        paper = val["paper"][key]
         lines.append(
             f"  {key:<12}{v['position_max']:>12.4g}{v['position_rms']:>12.4g}"
             f"{v['orientation_max']:>13.3g}{v['orientation_rms']:>13.3g}"
@@ -106,7 +92,7 @@ def _fit_statistics(data: dict[str, Any], unit: str, outliers: list[str]) -> lis
     n = data["n_parameters"]
     lines = [
         "[[Fit statistics]]",
-        f"    method              {method}: {METHOD_DESCRIPTIONS.get(method, method)}",
+        f"    method              {method}: {_label(method)}",
         f"    residual unit       {unit}",
         f"    poses               {data['poses']}"
         + (f" (outliers removed: {', '.join(outliers)})" if outliers else ""),

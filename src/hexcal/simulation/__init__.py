@@ -1,6 +1,10 @@
-"""Monte Carlo simulation of calibration campaigns: one campaign protocol, one runner
-that maps trials over an executor, and the seed paper's experiment and studies as
-definitions over them. Imports every layer below (core to design).
+"""Monte Carlo simulation of calibration campaigns: one campaign protocol
+(:mod:`~hexcal.simulation.protocol`: trial seeds, true machines, simulated data,
+validation; :mod:`~hexcal.simulation.identify`: identification and bounds), one runner
+that maps chunks of trials over an executor (:mod:`~hexcal.simulation.runner`), and the
+seed paper's experiment (:mod:`~hexcal.simulation.paper`) and the studies
+(:mod:`~hexcal.simulation.study`) as definitions over them. Imports every layer below
+(core to design).
 """
 
 from hexcal._lazy import attach
@@ -8,19 +12,43 @@ from hexcal._lazy import attach
 __getattr__, __dir__, __all__ = attach(
     __name__,
     {
-        "MachineBatch": "campaign",
-        "PaperExperiment": "campaign",
+        "BatchDefinition": "identify",
+        "CampaignData": "protocol",
+        "ChunkFunction": "runner",
+        "Executor": "runner",
+        "FixedStrategy": "study",
+        "MAX_CHUNK": "runner",
+        "MachineBatch": "protocol",
+        "PAPER_TABLE1": "paper",
+        "PAPER_VALIDATION": "paper",
+        "PaperDefinition": "paper",
+        "PaperExperiment": "paper",
         "PoseStrategy": "study",
-        "Progress": "campaign",
+        "Progress": "runner",
+        "ROW_LABELS": "paper",
         "STRATEGIES": "study",
+        "SerialExecutor": "runner",
         "StudyCell": "study",
+        "StudyDefinition": "study",
+        "StudyResult": "study",
+        "TrialSeeds": "protocol",
+        "campaign_bounds": "identify",
+        "chunk_indices": "runner",
         "fixed_strategy": "study",
-        "format_study": "study",
-        "identify_batch": "campaign",
-        "pose_errors": "campaign",
-        "random_machines": "campaign",
-        "run_paper_experiment": "campaign",
+        "identify_batch": "identify",
+        "identify_chunk": "identify",
+        "identify_or_nan": "identify",
+        "identify_trials": "identify",
+        "map_trials": "runner",
+        "paper_trials": "paper",
+        "random_machines": "protocol",
+        "resolve_jobs": "runner",
+        "run_paper_experiment": "paper",
         "run_study": "study",
-        "simulate_measurements": "campaign",
+        "simulate_campaigns": "protocol",
+        "simulate_measurements": "protocol",
+        "study_trials": "study",
+        "true_machines": "protocol",
+        "validate": "protocol",
     },
 )

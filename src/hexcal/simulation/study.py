@@ -1,12 +1,14 @@
 """Monte Carlo studies of calibration campaigns: methods × pose strategies × sizes × noise.
 
 For every combination of a pose strategy, a number of poses and a noise level, ``T``
-trials are simulated with the protocol of :mod:`hexcal.simulation.campaign` (each trial on its
-own child random generator); every estimator identifies the same data. Reported per
-cell: the mean absolute parameter error, its Cramér–Rao bound
-(:func:`hexcal.estimation.bounds.bound_mean_abs_error`), the efficiency error / bound, and
-the validation pose error on random workspace poses when the controller uses the
-identified parameters.
+trials are simulated with the protocol of :mod:`hexcal.simulation.protocol`; every
+estimator identifies the same data. Trial ``t`` draws its true machine and validation
+poses from its own generator, and each cell's poses and noise from the sub-stream
+``(t, strategy index, poses, noise index)``, so cells compare like with like and do not
+depend on each other. Reported per cell: the mean absolute parameter error, its
+Cramér–Rao bound (:func:`hexcal.estimation.bound_mean_abs_error`), the efficiency
+error / bound, and the validation pose error on random workspace poses when the
+controller uses the identified parameters.
 """
 
 from __future__ import annotations
@@ -14,19 +16,18 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.core.geometry import Geometry
-from hexcal.core.kinematics import inverse_kinematics, leg_readings
-from hexcal.core.noise import NoiseModel
-from hexcal.core.workspace import random_poses, workspace_corners
-from hexcal.estimation.bounds import bound_mean_abs_error
-from hexcal.models.pose import Measurements
-from hexcal.simulation.campaign import MachineBatch, identify_batch, pose_errors, random_machines
+from hexcal.core import Geometry, NoiseModel, random_poses, workspace_corners
+from hexcal.simulation.identify import campaign_bounds, identify_trials
+from hexcal.simulation.protocol import TrialSeeds, simulate_campaigns, true_machines, validate
+from hexcal.simulation.runner import Executor, Progress, map_trials
 
-#: Pose strategies: a function ``(nominal, n, rng) -> (n, 6)`` poses for one trial.
+#: Pose strategies: a function ``(nominal, n, rng) -> (n, 6)`` poses for one trial
+#: (module-level or picklable, to run in other processes).
 PoseStrategy = Callable[[Geometry, int, np.random.Generator], NDArray[np.float64]]
 
 
@@ -44,16 +45,29 @@ def _interior(nominal: Geometry, n: int, rng: np.random.Generator) -> NDArray[np
 STRATEGIES: dict[str, PoseStrategy] = {"corners": _corners, "interior": _interior}
 
 
-def fixed_strategy(poses_by_size: dict[int, NDArray[np.float64]]) -> PoseStrategy:
-    """A strategy returning a fixed pose set per size (e.g. optimally selected poses)."""
+@dataclass(frozen=True, eq=False)
+class FixedStrategy:
+    """A pose strategy returning a fixed pose set per size (picklable; see :func:`fixed_strategy`)."""
 
-    def strategy(nominal: Geometry, n: int, rng: np.random.Generator) -> NDArray[np.float64]:
+    poses_by_size: dict[int, NDArray[np.float64]]
+
+    def __call__(self, nominal: Geometry, n: int, rng: np.random.Generator) -> NDArray[np.float64]:
         del nominal, rng
-        if n not in poses_by_size:
+        if n not in self.poses_by_size:
             raise ValueError(f"no fixed pose set of {n} poses")
-        return poses_by_size[n]
+        return self.poses_by_size[n]
 
-    return strategy
+
+def fixed_strategy(poses_by_size: dict[int, NDArray[np.float64]]) -> PoseStrategy:
+    """A strategy returning a fixed pose set per size (e.g. optimally selected poses).
+
+    Examples
+    --------
+    >>> strategy = fixed_strategy({2: np.zeros((2, 6))})
+    >>> strategy(None, 2, None).shape
+    (2, 6)
+    """
+    return FixedStrategy(dict(poses_by_size))
 
 
 @dataclass(frozen=True)
@@ -70,9 +84,19 @@ class StudyCell:
     orientation_rms: NDArray[np.float64]  # (T,) validation orientation error RMS, rad
 
     def row(self) -> dict[str, float | str | int]:
+        """The cell's statistics over the trials (a row of ``study.json``).
+
+        ``error_mean`` and ``error_std`` of the mean absolute parameter error (mm), its
+        ``bound`` and ``efficiency`` (error / bound), the RMS validation errors and the
+        number of failed trials; NaN trials (failures) are left out of the statistics.
+        """
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # all trials failed: NaN, counted below
             return self._row()
+
+    def to_dict(self) -> dict[str, float | str | int]:
+        """Same as :meth:`row`."""
+        return self.row()
 
     def _row(self) -> dict[str, float | str | int]:
         err = float(np.nanmean(self.errors))
@@ -92,6 +116,77 @@ class StudyCell:
         }
 
 
+class StudyResult(list[StudyCell]):
+    """The cells of a study (a list of :class:`StudyCell`) and their JSON form.
+
+    Examples
+    --------
+    >>> cell = StudyCell("corners", 15, "paper", "ml", *np.ones((4, 2)))
+    >>> StudyResult([cell]).to_dict(trials=2)["cells"][0]["error_mean"]
+    1.0
+    """
+
+    def to_dict(self, **meta: Any) -> dict[str, Any]:
+        """``meta`` (trials, seed, noise, ...) and ``cells``, the rows of the cells (``study.json``)."""
+        return {**meta, "cells": [cell.to_dict() for cell in self]}
+
+
+@dataclass(frozen=True)
+class StudyDefinition:
+    """Everything a chunk of trials of a study needs (picklable)."""
+
+    nominal: Geometry
+    true: Geometry | None
+    seeds: TrialSeeds
+    methods: tuple[str, ...]
+    strategies: tuple[tuple[str, PoseStrategy], ...]
+    pose_counts: tuple[int, ...]
+    noises: tuple[tuple[str, NoiseModel], ...]
+    n_validation: int
+    parameter_error: float
+
+    def cells(self) -> list[tuple[int, str, int, int, str, NoiseModel, str]]:
+        """``(strategy index, name, poses, noise index, label, noise, method)`` of every cell, in order."""
+        return [
+            (s_index, s_name, n, z_index, z_name, noise, method)
+            for s_index, (s_name, _) in enumerate(self.strategies)
+            for n in self.pose_counts
+            for z_index, (z_name, noise) in enumerate(self.noises)
+            for method in self.methods
+        ]
+
+
+def study_trials(d: StudyDefinition, indices: NDArray[np.intp]) -> dict[str, NDArray[np.float64]]:
+    """Simulate, identify and validate every cell of the trials ``indices`` (the chunk function)."""
+    nominal = d.nominal
+    base = [d.seeds.generator(t) for t in indices]
+    true_vectors, machines = true_machines(nominal, d.true, base, d.parameter_error)
+    targets = np.stack([random_poses(nominal, d.n_validation, r) for r in base])
+    out: dict[str, NDArray[np.float64]] = {}
+    k = 0
+    for s_index, (_, strategy) in enumerate(d.strategies):
+        for n in d.pose_counts:
+            for z_index, (_, noise) in enumerate(d.noises):
+                # one generator per trial and cell, independent of the order of the cells
+                rngs = [d.seeds.generator(t, s_index, n, z_index) for t in indices]
+                commanded = np.stack([strategy(nominal, n, r) for r in rngs])
+                leg_noise = np.stack([noise.leg_errors(r, (n,)) for r in rngs])
+                pose_noise = np.stack([noise.pose_errors(r, (n,)) for r in rngs])
+                campaign = simulate_campaigns(
+                    nominal, machines, commanded, leg_noise, pose_noise, strict=False
+                )
+                bounds = campaign_bounds(nominal, d.true, true_vectors, campaign.reached, noise)
+                for method in d.methods:
+                    vectors = identify_trials(nominal, campaign, slice(None), method, noise)
+                    pos, ang = validate(nominal, machines, targets, vectors)
+                    out[f"{k}:errors"] = np.mean(np.abs(vectors - true_vectors), axis=1)
+                    out[f"{k}:bounds"] = np.full(len(indices), np.nan) if bounds is None else bounds
+                    out[f"{k}:position_rms"] = np.sqrt(np.mean(pos**2, axis=1))
+                    out[f"{k}:orientation_rms"] = np.sqrt(np.mean(ang**2, axis=1))
+                    k += 1
+    return out
+
+
 def run_study(
     nominal: Geometry,
     true: Geometry | None = None,
@@ -104,8 +199,11 @@ def run_study(
     n_validation: int = 10,
     parameter_error: float = 5.0,
     jobs: int | None = 1,
-    progress: Callable[[int, int], None] | None = None,
-) -> list[StudyCell]:
+    progress: Progress | None = None,
+    *,
+    executor: Executor | None = None,
+    chunk_size: int | None = None,
+) -> StudyResult:
     """Run a study (see the module docstring).
 
     Parameters
@@ -115,9 +213,10 @@ def run_study(
     true : Geometry, optional
         The real machine; default nominal plus uniform ±``parameter_error`` mm per trial.
     methods : sequence of str
-        Estimators (:data:`hexcal.estimation.likelihood.ESTIMATORS`).
+        Estimators (:data:`hexcal.estimation.ESTIMATORS`).
     strategies : dict of name to strategy, optional
-        Default ``corners`` and ``interior`` (:data:`STRATEGIES`).
+        Default ``corners`` and ``interior`` (:data:`STRATEGIES`). For ``jobs > 1`` they
+        must be picklable (module-level functions or :func:`fixed_strategy`).
     pose_counts : sequence of int
     noises : dict of label to NoiseModel, optional
         Default the seed paper's noise, labelled ``paper``. ``ml`` and ``gls`` assume the
@@ -129,112 +228,54 @@ def run_study(
     n_validation : int
         Random workspace poses per trial for the validation pose error.
     jobs : int or None
+        Processes (None: all cores).
     progress : callable(done, total), optional
+        Identifications done, as chunks of trials complete.
+    executor : Executor, optional
+        Where the chunks of trials run (see :func:`~hexcal.simulation.runner.map_trials`).
+    chunk_size : int, optional
+        Trials per chunk; the results do not depend on it.
 
     Returns
     -------
-    list of StudyCell
+    StudyResult
+        A list of :class:`StudyCell`, one per (strategy, poses, noise, method), in that
+        nesting order. A trial whose simulated machine cannot reach a commanded pose
+        counts as failed (NaN).
+
+    Examples
+    --------
+    >>> from hexcal.core import preset
+    >>> cells = run_study(preset("paper-hmt"), preset("paper-hmt-true"), methods=("length",), trials=2)
+    >>> [(c.strategy, c.n_poses, c.method, c.row()["failures"]) for c in cells]
+    [('corners', 15, 'length', 0), ('interior', 15, 'length', 0)]
     """
     strategies = dict(STRATEGIES) if strategies is None else strategies
     noises = {"paper": NoiseModel()} if noises is None else noises
-    entropy = np.random.SeedSequence(rng).entropy
-
-    def trial_rng(*key: int) -> np.random.Generator:
-        return np.random.default_rng(np.random.SeedSequence(entropy, spawn_key=key))
-
-    base_rngs = [trial_rng(t) for t in range(trials)]
-    euler = nominal.euler
-    if true is None:
-        true_vectors = random_machines(nominal, trials, parameter_error, base_rngs)
-        true_gains = nominal.leg_gains
-    else:
-        true_vectors = np.broadcast_to(true.to_vector(), (trials, 42)).copy()
-        true_gains = true.leg_gains
-    machines = MachineBatch.from_vectors(true_vectors, true_gains)
-    targets = np.stack([random_poses(nominal, n_validation, r) for r in base_rngs])
-    cells: list[StudyCell] = []
-    total = len(strategies) * len(pose_counts) * len(noises) * len(methods) * trials
-    done = 0
-    for s_index, (s_name, strategy) in enumerate(strategies.items()):
-        for n in pose_counts:
-            for z_index, (z_name, noise) in enumerate(noises.items()):
-                # one generator per trial and cell, independent of the order of the cells
-                rngs = [trial_rng(t, s_index, n, z_index) for t in range(trials)]
-                commanded = np.stack([strategy(nominal, n, r) for r in rngs])
-                leg_noise = np.stack([noise.leg_errors(r, (n,)) for r in rngs])
-                pose_noise = np.stack([noise.pose_errors(r, (n,)) for r in rngs])
-                readings = leg_readings(nominal, inverse_kinematics(nominal, commanded))
-                actual = machines.reach(readings + leg_noise / machines.leg_gains[:, None], commanded, euler)
-                measured = actual + pose_noise
-                datasets = [Measurements(measured[t], readings[t]) for t in range(trials)]
-                bounds = _cell_bounds(nominal, true, true_vectors, actual, noise)
-                for method in methods:
-
-                    def step(k: int, _n: int, base: int = done) -> None:
-                        if progress:
-                            progress(base + k, total)
-
-                    vectors = identify_batch(nominal, datasets, method, jobs, step, noise)
-                    done += trials
-                    errors = np.mean(np.abs(vectors - true_vectors), axis=1)
-                    pos, ang = _validate(nominal, machines, vectors, targets)
-                    cells.append(StudyCell(s_name, n, z_name, method, errors, bounds, pos, ang))
-    return cells
-
-
-def _cell_bounds(
-    nominal: Geometry,
-    true: Geometry | None,
-    true_vectors: NDArray[np.float64],
-    actual: NDArray[np.float64],
-    noise: NoiseModel,
-) -> NDArray[np.float64]:
-    if not np.any(noise.pose_cov()) and noise.sigmas[0] == 0:
-        return np.full(len(actual), np.nan)
-    if true is not None:
-        return bound_mean_abs_error(true, actual, noise)
-    return np.concatenate(
-        [
-            bound_mean_abs_error(nominal.with_vector(v), actual[t : t + 1], noise)
-            for t, v in enumerate(true_vectors)
-        ]
+    definition = StudyDefinition(
+        nominal,
+        true,
+        TrialSeeds.from_seed(rng),
+        tuple(methods),
+        tuple(strategies.items()),
+        tuple(int(n) for n in pose_counts),
+        tuple(noises.items()),
+        n_validation,
+        parameter_error,
     )
-
-
-def _validate(
-    nominal: Geometry,
-    machines: MachineBatch,
-    vectors: NDArray[np.float64],
-    targets: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """RMS validation pose errors per trial with the identified parameters (NaN if failed)."""
-    ok = ~np.isnan(vectors[:, 0])
-    safe = np.where(ok[:, None], vectors, nominal.to_vector())
-    identified = MachineBatch.from_vectors(safe, nominal.leg_gains)
-    commands = (
-        identified.lengths(targets, nominal.euler) - identified.initial_leg_lengths[:, None]
-    ) / identified.leg_gains[:, None]
-    reached = machines.reach(commands, targets, nominal.euler)
-    pos, ang = pose_errors(targets, reached, nominal.euler)
-    pos_rms = np.sqrt(np.mean(pos**2, axis=1))
-    ang_rms = np.sqrt(np.mean(ang**2, axis=1))
-    pos_rms[~ok] = np.nan
-    ang_rms[~ok] = np.nan
-    return pos_rms, ang_rms
-
-
-def format_study(cells: list[StudyCell]) -> str:
-    """Text table of a study."""
-    head = (
-        f"  {'strategy':<10}{'poses':>6}  {'noise':<10}{'method':<8}{'error mm':>10}{'std':>8}"
-        f"{'bound':>8}{'eff.':>6}{'val. pos rms':>14}{'val. ang rms':>14}"
-    )
-    lines = ["Mean absolute parameter error over the trials, its Cramér–Rao bound and validation", head]
-    for cell in cells:
-        r = cell.row()
-        lines.append(
-            f"  {r['strategy']:<10}{r['poses']:>6}  {r['noise']:<10}{r['method']:<8}{r['error_mean']:>10.4f}"
-            f"{r['error_std']:>8.4f}{r['bound']:>8.4f}{r['efficiency']:>6.2f}"
-            f"{r['position_rms']:>14.4g}{r['orientation_rms']:>14.3g}"
+    cells = definition.cells()
+    schedule = {"jobs": jobs, "executor": executor, "chunk_size": chunk_size, "progress": progress}
+    out = map_trials(study_trials, definition, trials, weight=len(cells), **schedule)
+    return StudyResult(
+        StudyCell(
+            s_name,
+            n,
+            z_name,
+            method,
+            out[f"{k}:errors"],
+            out[f"{k}:bounds"],
+            out[f"{k}:position_rms"],
+            out[f"{k}:orientation_rms"],
         )
-    return "\n".join(lines)
+        for k, (_, s_name, n, _, z_name, _, method) in enumerate(cells)
+    )

@@ -1,0 +1,172 @@
+"""The one runner: maps chunks of trial indices over an executor and reassembles by index.
+
+A simulation is a *definition* (a small picklable object) and a *chunk function*
+``fn(definition, indices) -> {name: array}`` that simulates the trials ``indices``
+(generating their data from the trial seeds, :class:`~hexcal.simulation.protocol.TrialSeeds`)
+and returns arrays whose first axis runs over those trials. :func:`map_trials` submits
+the chunks to an executor (anything with ``submit(fn, *args)`` returning a future with
+``.result()``: :class:`SerialExecutor` in this process,
+:class:`concurrent.futures.ProcessPoolExecutor` for ``jobs > 1``, or a distributed
+client), reports progress as chunks complete and concatenates the results in trial
+order, so they do not depend on how trials are grouped or where they run.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Mapping
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+#: Progress callback ``(done, total)``.
+Progress = Callable[[int, int], None]
+#: A chunk function ``(definition, trial indices) -> {name: array over those trials}``.
+ChunkFunction = Callable[[Any, NDArray[np.intp]], Mapping[str, NDArray[Any]]]
+
+#: Most trials per chunk: small enough for frequent progress, large enough that the
+#: per-chunk overhead (pickling, batching) stays small.
+MAX_CHUNK = 50
+
+
+class Executor(Protocol):
+    """Anything that runs ``fn(*args)`` and returns a future (``concurrent.futures`` style)."""
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any) -> Future[Any]: ...
+
+
+class SerialExecutor:
+    """An executor that runs each submitted call at once, in this process.
+
+    Examples
+    --------
+    >>> SerialExecutor().submit(pow, 2, 10).result()
+    1024
+    """
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any) -> Future[Any]:
+        future: Future[Any] = Future()
+        try:
+            future.set_result(fn(*args))
+        except Exception as exc:  # delivered through the future, as a pool would
+            future.set_exception(exc)
+        return future
+
+
+def resolve_jobs(jobs: int | None) -> int:
+    """Number of processes: ``None`` means all cores, at least 1."""
+    return (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
+
+
+def chunk_indices(trials: int, jobs: int = 1, chunk_size: int | None = None) -> list[NDArray[np.intp]]:
+    """Trial indices ``0 .. trials-1`` in chunks (default about four per process, at most 50).
+
+    Examples
+    --------
+    >>> [c.tolist() for c in chunk_indices(5, chunk_size=2)]
+    [[0, 1], [2, 3], [4]]
+    """
+    if chunk_size is None:
+        chunk_size = max(1, min(MAX_CHUNK, -(-trials // (4 * jobs))))
+    chunk_size = max(1, int(chunk_size))
+    return [np.arange(i, min(i + chunk_size, trials)) for i in range(0, trials, chunk_size)]
+
+
+def map_trials(
+    fn: ChunkFunction,
+    definition: Any,
+    trials: int,
+    *,
+    jobs: int | None = 1,
+    executor: Executor | None = None,
+    chunk_size: int | None = None,
+    progress: Progress | None = None,
+    weight: int = 1,
+) -> dict[str, NDArray[Any]]:
+    """Run ``fn(definition, indices)`` over all trials, chunk by chunk.
+
+    Parameters
+    ----------
+    fn : callable
+        The chunk function; a module-level function if it runs in other processes.
+    definition : object
+        Passed to every chunk (picklable for other processes).
+    trials : int
+    jobs : int or None
+        Processes when no ``executor`` is given: 1 runs in this process, more use a
+        :class:`~concurrent.futures.ProcessPoolExecutor` (``None``: all cores).
+    executor : Executor, optional
+        Where to run the chunks (it is not shut down here).
+    chunk_size : int, optional
+        Trials per chunk (default about four chunks per process, at most 50).
+    progress : callable(done, total), optional
+        Called as chunks complete, in units of ``weight`` per trial.
+    weight : int
+        Work units per trial for ``progress`` (e.g. identifications per trial).
+
+    Returns
+    -------
+    dict of name to ndarray
+        Each chunk's arrays concatenated in trial order (first axis ``trials``).
+
+    Examples
+    --------
+    >>> def squares(offset, idx):
+    ...     return {"value": idx**2 + offset}
+    >>> map_trials(squares, 1, 5, chunk_size=2)["value"].tolist()
+    [1, 2, 5, 10, 17]
+    """
+    n_jobs = resolve_jobs(jobs)
+    chunks = chunk_indices(trials, n_jobs, chunk_size)
+    if executor is not None:
+        return _collect(executor, fn, definition, chunks, trials, progress, weight)
+    if n_jobs == 1 or len(chunks) == 1:
+        return _collect(SerialExecutor(), fn, definition, chunks, trials, progress, weight)
+    pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(chunks)))
+    try:
+        out = _collect(pool, fn, definition, chunks, trials, progress, weight)
+    except BaseException as exc:  # errors and KeyboardInterrupt: drop the queued chunks at once
+        if isinstance(exc, KeyboardInterrupt):
+            # else the workers would still finish the chunks already handed to them
+            workers = getattr(pool, "_processes", None) or {}
+            for process in list(workers.values()):
+                process.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
+    return out
+
+
+def _collect(
+    executor: Executor,
+    fn: ChunkFunction,
+    definition: Any,
+    chunks: list[NDArray[np.intp]],
+    trials: int,
+    progress: Progress | None,
+    weight: int,
+) -> dict[str, NDArray[Any]]:
+    """Submit every chunk, wait for them as they complete, reassemble by trial index."""
+    futures: dict[Future[Any], int] = {}
+    for k, idx in enumerate(chunks):
+        futures[executor.submit(fn, definition, idx)] = k
+    results: list[Mapping[str, NDArray[Any]] | None] = [None] * len(chunks)
+    pending, done = set(futures), 0
+    try:
+        while pending:
+            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in finished:
+                k = futures[future]
+                results[k] = future.result()
+                done += len(chunks[k])
+                if progress:
+                    progress(done * weight, trials * weight)
+    except BaseException:
+        for future in pending:
+            future.cancel()
+        raise
+    if not results:
+        return {}
+    return {name: np.concatenate([r[name] for r in results if r is not None]) for name in results[0] or {}}
