@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from tests.conftest import simulate_measurements
 
 from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
@@ -15,7 +16,6 @@ from hexcal.estimation.fitting import estimate
 from hexcal.estimation.likelihood import fit_ml
 from hexcal.estimation.noise_estimation import NOISE_FLOORS, check_noise, estimate_noise
 from hexcal.estimation.problem import Problem
-from tests.conftest import simulate_measurements
 
 NOMINAL, TRUE = preset("paper-hmt"), preset("paper-hmt-true")
 SIGMA_NOISE = NoiseModel(leg=0.02, position=0.05, orientation=0.0005, distribution="normal")

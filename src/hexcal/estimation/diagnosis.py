@@ -40,7 +40,7 @@ def length_fit_rms(start: Any, measurements: Any, mask: Any) -> tuple[float, int
     from hexcal.estimation.problem import Problem
 
     try:
-        res = fit_least_squares(Problem(start, measurements, mask=mask), "length", max_nfev=200)
+        res = fit_least_squares(Problem(start, measurements, mask=mask), "length", max_nfev=60)
     except (HexcalError, ValueError, np.linalg.LinAlgError):
         return float("inf"), 0
     return res.rms_after, res.dof

@@ -129,7 +129,8 @@ def estimate(
         if auto:
             noise_estimate = _robust_noise(start, measurements, mask, model, parameters, options)
             noise = noise_estimate.noise
-        robust_fit = identify_robust(start, measurements, method, mask, alpha, noise=noise)
+        with np.errstate(over="ignore"):  # a gross outlier's deletion statistic may be inf
+            robust_fit = identify_robust(start, measurements, method, mask, alpha, noise=noise)
         result, used = robust_fit.result, measurements.subset(robust_fit.kept)
         flagged_idx = robust_fit.diagnostics.flagged
     else:

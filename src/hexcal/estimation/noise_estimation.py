@@ -98,9 +98,11 @@ def _row_groups(problem: Problem, whitener: NDArray[np.float64], groups: tuple[s
     for g, name in enumerate(groups[1:], start=1):
         probe = NoiseModel(0.0, **{f: (1.0 if f == name else 0.0) for f in _FIELDS}, distribution="normal")
         comp[np.diag(np.asarray(model.covariance(probe))) != 0] = g
-    nonzero = np.abs(whitener) > 1e-12 * np.max(np.abs(whitener))
-    single = nonzero.sum(axis=1) == 1
-    inst = np.where(single, comp[np.argmax(np.abs(whitener), axis=1)], -1)
+    # a row may mix components of one group (eigenvectors of a repeated variance), not two
+    nonzero = np.abs(whitener) > 1e-9 * np.max(np.abs(whitener), axis=1, keepdims=True)
+    lo = np.min(np.where(nonzero, comp, np.iinfo(np.intp).max), axis=1)
+    hi = np.max(np.where(nonzero, comp, -1), axis=1)
+    inst = np.where((lo == hi) & (lo >= 0), hi, -1)
     return np.concatenate([np.zeros(6, dtype=np.intp), inst])
 
 

@@ -55,7 +55,7 @@ GROSS_FACTOR = 5.0
 
 #: A combination whose predicted σ exceeds the limit is poorly determined (``warn``); beyond
 #: this many times the limit it is not determined at all (``fail``).
-FAIL_FACTOR = 10.0
+FAIL_FACTOR = 3.0
 
 SEVERITIES = ("info", "warn", "fail")
 
