@@ -149,7 +149,8 @@ def estimate(
             # the whitened deletion statistic follows a known F distribution on the
             # generalised least-squares fit of the same data
             gls = result if method == "gls" else get_estimator("gls").fit(problem, noise)
-            flagged_idx = pose_diagnostics(gls, measurements, problem.mask, alpha, noise).flagged
+            with np.errstate(over="ignore"):  # a gross outlier's statistic may be inf
+                flagged_idx = pose_diagnostics(gls, measurements, problem.mask, alpha, noise).flagged
     flagged = tuple(used.ids[k] for k in flagged_idx)
     bound = None
     if with_bound:
