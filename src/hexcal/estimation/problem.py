@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import pose_jacobian_from_arrays
-from hexcal.core.linalg import numerical_rank, scaled_svd
+from hexcal.core.linalg import null_space, numerical_rank, scaled_svd
 from hexcal.core.parameters import (
     MIN_POSES,
     N_ALL_PARAMETERS,
@@ -140,9 +140,13 @@ class Problem:
         svd = scaled_svd(jac_scaled)
         rank = numerical_rank(svd.singular_values)
         if rank < self.n_free:
+            basis, _ = null_space(jac_scaled)
+            combos = "; ".join(self.combination(v) for v in basis[:5])
+            more = f" and {len(basis) - 5} more" if len(basis) > 5 else ""
             raise IdentificationError(
                 f"the poses cannot identify all parameters{where} (rank-deficient Jacobian: rank "
-                f"{rank} of {self.n_free}; weakest combination: {self.combination(svd.vt[-1])})"
+                f"{rank} of {self.n_free}; weakest combination: {self.combination(svd.vt[-1])}; "
+                f"undetermined combinations: {combos}{more})"
             )
 
     def combination(self, vector: NDArray[np.float64], top: int = 4) -> str:

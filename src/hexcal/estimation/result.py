@@ -69,6 +69,15 @@ class IdentificationResult:
         Ids of poses whose residuals are implausible under the noise model.
     model : str
         Name of the measurement model.
+    verdict : Verdict, optional
+        ``pass`` | ``warn`` | ``fail`` with its reasons (:mod:`hexcal.estimation.verdict`).
+    noise_source : str
+        ``"estimated"`` (learned from the data, :mod:`hexcal.estimation.noise_estimation`)
+        or ``"given"``.
+    noise_estimate : NoiseEstimate, optional
+        The variance components (σ, standard errors, redundancies) when estimated.
+    noise_check : NoiseCheck, optional
+        The given noise tested against the data, per group.
     """
 
     geometry: Geometry
@@ -101,6 +110,20 @@ class IdentificationResult:
     outliers: tuple[str, ...] = ()
     flagged: tuple[str, ...] = ()
     model: str = "pose"
+    verdict: Any = None
+    noise_source: str = "given"
+    noise_estimate: Any = None
+    noise_check: Any = None
+
+    @property
+    def verdict_status(self) -> str:
+        """``pass``, ``warn`` or ``fail`` (``pass`` when no verdict was made)."""
+        return "pass" if self.verdict is None else self.verdict.status
+
+    @property
+    def failed(self) -> bool:
+        """The verdict is ``fail``: write no calibrated geometry (unless forced)."""
+        return self.verdict is not None and self.verdict.failed
 
     @property
     def reduced_chi2(self) -> float:
@@ -138,14 +161,57 @@ class IdentificationResult:
             out["bound"] = dict(zip(self.names, self.bound.tolist(), strict=True))
         if self.noise is not None:
             out["noise"] = self.noise.describe()
+            out["noise_source"] = self.noise_source
+        if self.verdict is not None:
+            out["verdict"] = self.verdict_status
+        return out
+
+    def noise_dict(self) -> dict[str, Any] | None:
+        """The noise model used as standard deviations (mm, mm, rad) and its source."""
+        if self.noise is None:
+            return None
+        leg, pos, ang = self.noise.sigmas
+        out: dict[str, Any] = {
+            "leg": leg,
+            "position": pos,
+            "orientation": ang,
+            "source": self.noise_source,
+            "distribution": self.noise.distribution,
+            "sigmas": {"leg": leg, "position": pos, "orientation": ang},
+        }
+        if self.noise_estimate is not None:
+            est = self.noise_estimate
+            out["stderr"] = dict(zip(est.groups, est.stderr.tolist(), strict=True))
+        else:
+            out["given"] = self.noise.to_dict()
         return out
 
     def to_dict(self) -> dict[str, Any]:
         """Everything a report needs, JSON-ready (the ``--json`` file of ``hexcal identify``).
 
         Lengths in mm, angles in rad; ``correlation`` row-major over ``names``.
+
+        - ``verdict``: ``"pass"`` | ``"warn"`` | ``"fail"``; ``reasons``: list of
+          ``{"code", "severity" (info|warn|fail), "message"[, "data"]}``; ``accuracy``: the
+          predicted pose error after calibration over the workspace
+          (``position_rms_mm``, ``position_max_mm``, ``orientation_rms_rad``,
+          ``orientation_max_rad``);
+        - ``noise``: the noise model used, as **standard deviations**: ``{"leg": mm,
+          "position": mm, "orientation": rad, "source": "estimated" | "given", ...}``, plus
+          ``stderr`` (same units) when estimated and ``given`` (the model as given, its
+          uniform half-widths or σ) when given; ``noise_check``: per group the σ ratio
+          (data / given), redundancy and p-value;
+        - ``bound``: name -> Cramér–Rao σ (mm, gains dimensionless); ``stderr`` likewise;
+        - ``reduced_chi_square``: sum of squared whitened residuals over ``dof``
+          (mm² over ``dof`` for ``length``; mm⁴ for ``paper``).
         """
+        verdict = None if self.verdict is None else self.verdict.to_dict()
         return {
+            "verdict": self.verdict_status if verdict is not None else None,
+            "reasons": [] if verdict is None else verdict["reasons"],
+            "accuracy": None if verdict is None else verdict["accuracy"],
+            "noise_check": None if self.noise_check is None else self.noise_check.to_dict(),
+            "noise_estimate": None if self.noise_estimate is None else self.noise_estimate.to_dict(),
             "method": self.method,
             "model": self.model,
             "poses": self.n_poses,
@@ -153,7 +219,7 @@ class IdentificationResult:
             "start": dict(zip(self.names, self.start_values.tolist(), strict=True)),
             "stderr": self.standard_errors,
             "bound": None if self.bound is None else dict(zip(self.names, self.bound.tolist(), strict=True)),
-            "noise": None if self.noise is None else self.noise.to_dict(),
+            "noise": self.noise_dict(),
             "rank": self.rank,
             "n_parameters": len(self.names),
             "dof": self.dof,

@@ -1,0 +1,357 @@
+"""The verdict of an identification: ``pass``, ``warn`` or ``fail``, with its reasons.
+
+:func:`assess` judges a fit on five counts and names the likely cause of a bad one
+(:mod:`hexcal.estimation.diagnosis`):
+
+- **noise consistency**: the reduced chi-square against its χ² range for the degrees of
+  freedom (a given noise model), the per-group test of a given noise
+  (:func:`hexcal.estimation.noise_estimation.check_noise`), the convergence of the
+  variance components (an estimated noise);
+- **identifiability, statistically**: every parameter combination whose predicted σ (from
+  the covariance of the fit, parameters in units of :data:`SIGMA_LIMITS`) exceeds its limit
+  is poorly determined (``warn``), beyond :data:`FAIL_FACTOR` times it not determined by
+  these data (``fail``), named;
+- **plausibility**: a change larger than :data:`MAX_CHANGE` of the machine's size (base
+  radius for ``u``, platform radius for ``s``, the larger for ``l0``; a gain change larger
+  than :data:`MAX_CHANGE` itself) is ``fail``;
+- **gross outliers**: poses whose leg residuals under a robust soft-L1 fit
+  (:func:`hexcal.estimation.robust.screen_poses`) exceed :data:`SCREEN_THRESHOLD` robust
+  σ (``warn``), or :data:`GROSS_FACTOR` times that (``fail``), named by id;
+- **predicted accuracy**: the position and orientation RMS error over the workspace after
+  calibration, from the parameter covariance (:func:`predicted_pose_accuracy`; ``info``).
+
+A ``fail`` means the calibrated geometry should not be used (the CLI writes it only with
+``--force``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hexcal.core.geometry import Geometry
+from hexcal.core.kinematics import pose_jacobian_from_arrays
+from hexcal.core.parameters import N_ALL_PARAMETERS, PARAMETER_NAMES
+from hexcal.core.workspace import random_poses, workspace_corners
+from hexcal.errors import HexcalError
+from hexcal.models.legs import leg_parameter_jacobian, pose_frames
+
+#: Default limits of the predicted σ of a parameter combination (per unit of the
+#: normalised combination): 1 mm for lengths, 1e-3 for gains. ``assess(sigma_limit=k)``
+#: scales both by ``k``.
+SIGMA_LIMITS = {"length": 1.0, "gain": 1e-3}
+
+#: Largest plausible change of a parameter, as a fraction of the machine's size (and of 1
+#: for gains).
+MAX_CHANGE = 0.1
+
+#: Robust σ beyond which a pose's leg residual is an outlier (``warn``) ...
+SCREEN_THRESHOLD = 8.0
+#: ... and this many times that, a gross error (``fail``).
+GROSS_FACTOR = 5.0
+
+#: A combination whose predicted σ exceeds the limit is poorly determined (``warn``); beyond
+#: this many times the limit it is not determined at all (``fail``).
+FAIL_FACTOR = 3.0
+
+SEVERITIES = ("info", "warn", "fail")
+
+
+@dataclass(frozen=True)
+class Reason:
+    """One finding: ``code`` (stable, for programs), ``severity`` (info|warn|fail), ``message``."""
+
+    code: str
+    severity: str
+    message: str
+    data: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"code": self.code, "severity": self.severity, "message": self.message}
+        if self.data:
+            out["data"] = self.data
+        return out
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """``status`` (pass|warn|fail) and the reasons; ``accuracy`` the predicted pose accuracy."""
+
+    reasons: tuple[Reason, ...]
+    accuracy: dict[str, float] | None = None
+
+    @property
+    def status(self) -> str:
+        worst = max((SEVERITIES.index(r.severity) for r in self.reasons), default=0)
+        return ("pass", "warn", "fail")[worst]
+
+    @property
+    def failed(self) -> bool:
+        """True when the calibrated geometry should not be written (without ``--force``)."""
+        return self.status == "fail"
+
+    def codes(self, severity: str | None = None) -> tuple[str, ...]:
+        return tuple(r.code for r in self.reasons if severity is None or r.severity == severity)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "verdict": self.status,
+            "reasons": [r.to_dict() for r in self.reasons],
+            "accuracy": self.accuracy,
+        }
+
+
+def combination_name(vector: NDArray[np.float64], names: tuple[str, ...], top: int = 4) -> str:
+    """Readable form of a unit parameter combination (its largest components)."""
+    order = np.argsort(-np.abs(vector))[:top]
+    return " ".join(f"{vector[k]:+.2f}·{names[k]}" for k in order if abs(vector[k]) > 0.05)
+
+
+def parameter_limits(names: tuple[str, ...], sigma_limit: float = 1.0) -> NDArray[np.float64]:
+    """The σ limit of each named parameter (mm, or dimensionless for gains)."""
+    return np.array([SIGMA_LIMITS["gain" if n.startswith("g") else "length"] * sigma_limit for n in names])
+
+
+def undetermined(
+    covariance: NDArray[np.float64], names: tuple[str, ...], sigma_limit: float = 1.0
+) -> list[tuple[float, str]]:
+    """Parameter combinations whose predicted σ exceeds the limit: ``[(σ, name), ...]``, worst
+    first (σ in units of the limits)."""
+    d = parameter_limits(names, sigma_limit)
+    cov = covariance / np.outer(d, d)
+    vals, vecs = np.linalg.eigh(0.5 * (cov + cov.T))
+    sig = np.sqrt(np.maximum(vals, 0.0))
+    bad = np.flatnonzero(~(sig <= 1.0))[::-1]
+    return [(float(sig[k]), combination_name(vecs[:, k], names)) for k in bad]
+
+
+def machine_size(geometry: Geometry) -> tuple[float, float]:
+    """Base and platform radius (mm): the largest joint distance from the frame's z axis."""
+    rb = float(np.max(np.linalg.norm(geometry.base_joints[:, :2], axis=1)))
+    rp = float(np.max(np.linalg.norm(geometry.platform_joints[:, :2], axis=1)))
+    return rb, rp
+
+
+def change_limits(geometry: Geometry, names: tuple[str, ...], fraction: float = MAX_CHANGE) -> NDArray:
+    """Largest plausible change of each named parameter."""
+    rb, rp = machine_size(geometry)
+    size = {"u": rb, "s": rp, "l": max(rb, rp), "g": 1.0}
+    return np.array([fraction * size.get(n[0], max(rb, rp)) for n in names])
+
+
+def predicted_pose_accuracy(
+    geometry: Geometry,
+    covariance: NDArray[np.float64],
+    mask: NDArray[np.bool_],
+    n_random: int = 200,
+    seed: int = 0,
+) -> dict[str, float]:
+    """RMS and worst position (mm) and orientation (rad) σ over the workspace after calibration.
+
+    A minimal first-order pose error map (:mod:`hexcal.design` has the full one; estimation
+    may not import it): at each pose ``P`` (the workspace corners and ``n_random`` uniform
+    poses) the legs set by the calibrated model reach ``P + δP`` on the real machine,
+    ``δP = -J_P⁻¹ (∂r/∂θ) δθ``, so ``cov(δP) = G C Gᵀ`` with ``C`` the parameter
+    covariance (machine parameters ``mask``, shape (n, n)).
+    """
+    poses = np.concatenate([workspace_corners(geometry), random_poses(geometry, n_random, seed)])
+    values = geometry.to_vector(gains=True)
+    u, s = geometry.base_joints, geometry.platform_joints
+    lengths, jp = pose_jacobian_from_arrays(u, s, poses, geometry.euler)
+    readings = (lengths - geometry.initial_leg_lengths) / geometry.leg_gains
+    rot, pos = pose_frames(poses, geometry.euler)
+    a = leg_parameter_jacobian(values, rot, pos, readings)[:, :, mask]
+    g = np.linalg.solve(jp, a)  # (m, 6, n): pose change per parameter change
+    var = np.einsum("mik,kl,mil->mi", g, covariance, g)
+    var = np.maximum(var, 0.0)
+    pos_var, ang_var = var[:, :3].sum(axis=1), var[:, 3:].sum(axis=1)
+    return {
+        "position_rms_mm": float(np.sqrt(pos_var.mean())),
+        "position_max_mm": float(np.sqrt(pos_var.max())),
+        "orientation_rms_rad": float(np.sqrt(ang_var.mean())),
+        "orientation_max_rad": float(np.sqrt(ang_var.max())),
+        "poses": len(poses),
+    }
+
+
+def _chi_square_reasons(result: Any, alpha: float) -> list[Reason]:
+    from scipy.special import chdtri
+
+    dof, red = result.dof, result.reduced_chi2
+    if result.method not in ("ml", "gls") or dof <= 0 or not np.isfinite(red):
+        return []
+    lo, hi = chdtri(dof, 1 - alpha / 2) / dof, chdtri(dof, alpha / 2) / dof
+    data = {"reduced_chi_square": red, "range": [lo, hi], "dof": dof}
+    if lo <= red <= hi:
+        text = f"reduced chi-square {red:.3g} within [{lo:.3g}, {hi:.3g}]"
+        return [Reason("chi-square", "info", text, data)]
+    return [
+        Reason(
+            "chi-square",
+            "warn",
+            f"reduced chi-square {red:.4g} outside [{lo:.3g}, {hi:.3g}] for {dof} degrees of "
+            "freedom: the noise model does not fit the data",
+            data,
+        )
+    ]
+
+
+def _noise_reasons(noise_estimate: Any, noise_check: Any) -> list[Reason]:
+    out = []
+    if noise_check is not None and noise_check.disagree:
+        out.append(
+            Reason(
+                "noise-model",
+                "warn",
+                f"the given noise disagrees with the data: {noise_check.describe()} "
+                "(estimate it from the data: noise auto)",
+                noise_check.to_dict(),
+            )
+        )
+    if noise_estimate is not None:
+        est = noise_estimate
+        parts = [
+            f"{g} σ {s:.3g} ± {e:.2g}" for g, s, e in zip(est.groups, est.sigmas, est.stderr, strict=True)
+        ]
+        out.append(Reason("noise-estimated", "info", "noise from the data: " + ", ".join(parts)))
+        if not noise_estimate.converged:
+            out.append(Reason("noise-not-converged", "warn", "the variance components did not converge"))
+        for g, ok in zip(noise_estimate.groups, noise_estimate.estimated, strict=True):
+            if not ok:
+                out.append(Reason("noise-not-estimated", "warn", f"too few data to estimate the {g} noise"))
+    return out
+
+
+def assess(
+    result: Any,
+    measurements: Any = None,
+    *,
+    noise_estimate: Any = None,
+    noise_check: Any = None,
+    sigma_limit: float = 1.0,
+    max_change: float = MAX_CHANGE,
+    alpha: float = 0.01,
+    robust: bool = False,
+    diagnose: bool = True,
+    accuracy: bool = True,
+) -> Verdict:
+    """The verdict of an identification (module docstring).
+
+    Parameters
+    ----------
+    result : IdentificationResult
+    measurements : Measurements, optional
+        The data fitted (full-pose model): needed for the outlier screening and the diagnoses.
+    noise_estimate : NoiseEstimate, optional
+        The noise learned from the data (``noise="auto"``).
+    noise_check : NoiseCheck, optional
+        The given noise tested against the data.
+    sigma_limit : float
+        Scale of :data:`SIGMA_LIMITS` (a combination with a larger predicted σ is undetermined).
+    max_change : float
+        Largest plausible change as a fraction of the machine's size.
+    alpha : float
+        Level of the statistical tests.
+    robust : bool
+        The fit left outliers out already (the screening then only reports).
+    diagnose : bool
+        Name the likely cause of a bad fit by refitting variants
+        (:func:`hexcal.estimation.diagnosis.diagnose`).
+    accuracy : bool
+        Compute the predicted pose accuracy over the workspace.
+    """
+    reasons: list[Reason] = []
+    reasons += _chi_square_reasons(result, alpha) if noise_estimate is None else []
+    reasons += _noise_reasons(noise_estimate, noise_check)
+    names = result.names
+    for sig, combo in undetermined(result.covariance, names, sigma_limit)[:5]:
+        severity = "fail" if sig > FAIL_FACTOR else "warn"
+        reasons.append(
+            Reason(
+                "undetermined" if severity == "fail" else "weakly-determined",
+                severity,
+                f"{'not' if severity == 'fail' else 'poorly'} determined by these data: {combo} "
+                f"(predicted σ {sig:.3g} × the limit of {sigma_limit:g} mm, "
+                f"{sigma_limit * 1e-3:g} for gains)",
+                {"combination": combo, "sigma_over_limit": sig},
+            )
+        )
+    change = np.asarray(result.values) - np.asarray(result.start_values)
+    limits = change_limits(result.start, names, max_change)
+    over = np.flatnonzero(np.abs(change) > limits)
+    if over.size:
+        worst = over[np.argsort(-np.abs(change[over]) / limits[over])][:4]
+        listed = ", ".join(f"{names[k]} {change[k]:+.4g}" for k in worst)
+        reasons.append(
+            Reason(
+                "implausible-change",
+                "fail",
+                f"{over.size} parameter(s) changed beyond {max_change:.0%} of the machine's size: {listed}",
+                {"parameters": [names[k] for k in over]},
+            )
+        )
+    if result.outliers:
+        text = f"poses left out as outliers: {', '.join(result.outliers)}"
+        reasons.append(Reason("outliers-removed", "info", text))
+    if result.flagged:
+        text = f"poses with implausible residuals: {', '.join(result.flagged)}"
+        reasons.append(Reason("flagged", "warn", text))
+    if measurements is not None and hasattr(measurements, "poses") and not robust:
+        reasons += _outlier_reasons(result, measurements)
+    acc = None
+    machine = np.isin(PARAMETER_NAMES, names)
+    n_machine = int(machine.sum())
+    if accuracy and n_machine and np.all(np.isfinite(result.covariance[:n_machine, :n_machine])):
+        acc = predicted_pose_accuracy(result.geometry, result.covariance[:n_machine, :n_machine], machine)
+        reasons.append(
+            Reason(
+                "predicted-accuracy",
+                "info",
+                f"predicted pose error after calibration over the workspace: position RMS "
+                f"{acc['position_rms_mm']:.3g} mm (worst {acc['position_max_mm']:.3g}), orientation RMS "
+                f"{acc['orientation_rms_rad']:.3g} rad (worst {acc['orientation_max_rad']:.3g})",
+                acc,
+            )
+        )
+    verdict = Verdict(tuple(reasons), acc)
+    if diagnose and measurements is not None and hasattr(measurements, "poses"):
+        from hexcal.estimation.diagnosis import diagnose as run_diagnosis
+
+        extra = run_diagnosis(result, measurements, bad=verdict.status != "pass" or result.flagged != ())
+        verdict = Verdict(tuple(reasons) + tuple(extra), acc)
+    return verdict
+
+
+def _outlier_reasons(result: Any, measurements: Any) -> list[Reason]:
+    from hexcal.estimation.robust import screen_poses
+
+    mask = np.isin(PARAMETER_NAMES, result.names)
+    if len(result.names) != int(mask.sum()) or len(measurements) != result.n_poses:
+        return []
+    try:
+        scores = screen_poses(result.start, measurements, mask)
+    except (HexcalError, ValueError, np.linalg.LinAlgError):  # the screening is advisory
+        return []
+    out = []
+    gross = SCREEN_THRESHOLD * GROSS_FACTOR
+    for sev, lo, hi in (("fail", gross, np.inf), ("warn", SCREEN_THRESHOLD, gross)):
+        idx = np.flatnonzero((scores > lo) & (scores <= hi))
+        if idx.size:
+            idx = idx[np.argsort(-scores[idx])]
+            listed = ", ".join(f"{measurements.ids[k]} ({scores[k]:.0f} σ)" for k in idx[:10])
+            out.append(
+                Reason(
+                    "gross-outlier" if sev == "fail" else "outlier",
+                    sev,
+                    f"pose(s) with leg residuals far beyond the robust scale: {listed}; "
+                    "check them or fit with --robust",
+                    {"poses": [measurements.ids[k] for k in idx]},
+                )
+            )
+    return out
+
+
+__all__ = ["N_ALL_PARAMETERS", "Reason", "Verdict", "assess", "predicted_pose_accuracy", "undetermined"]
