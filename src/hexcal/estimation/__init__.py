@@ -8,6 +8,7 @@ from hexcal._lazy import attach
 __getattr__, __dir__, __all__ = attach(
     __name__,
     {
+        "BatchResult": "batched",
         "DEFAULT_ALPHA": "robust",
         "DEFAULT_ESTIMATOR": "registry",
         "ESTIMATORS": "registry",
@@ -28,6 +29,7 @@ __getattr__, __dir__, __all__ = attach(
         "bound_stderr": "bounds",
         "cramer_rao_covariance": "bounds",
         "estimate": "fitting",
+        "estimate_batch": "batched",
         "finish_result": "result",
         "fisher_information": "bounds",
         "fit_gls": "gls",
@@ -39,6 +41,7 @@ __getattr__, __dir__, __all__ = attach(
         "get_estimator": "registry",
         "identification_jacobian": "problem",
         "identification_residuals": "problem",
+        "identify_chunk": "batched",
         "identify_robust": "robust",
         "measurements_problem": "problem",
         "planned_measurements": "bounds",
