@@ -125,6 +125,11 @@ def test_per_trial_starts_reach_the_same_optimum(nominal, true_machine, simulate
     own = estimate_batch(nominal, readings, poses, "paper", starts=starts)
     assert own.converged.all()
     assert np.max(np.abs(own.values - shared.values)) < AGREEMENT
+    # solved in chunks of three and of one trial: the same values within rounding
+    for chunk in (3, 1):
+        again = estimate_batch(nominal, readings, poses, "paper", chunk=chunk)
+        assert np.max(np.abs(again.values - shared.values)) < 1e-10
+        assert np.array_equal(again.status, shared.status)
 
 
 def test_without_pose_noise_ml_is_length(nominal, true_machine, simulate):
