@@ -113,7 +113,7 @@ def _ml_normal_equations(full, poses, eqs, inner, idx, free):
         h[:, span, span] += blocks[:, i][:, cols][:, :, cols]
         g[:, span] += ate[:, i, cols]
         start += cols.size
-    return g, h
+    return g, h, js
 
 
 def solve_ml(full0, full, observed, readings, euler, mask, noise, alive, xtol, max_iter):
@@ -141,8 +141,13 @@ def solve_ml(full0, full, observed, readings, euler, mask, noise, alive, xtol, m
     iterations = np.zeros(t, dtype=int)
     lam, nu = np.full(t, ML_LAMBDA0), np.full(t, 2.0)
     g, h = np.zeros((t, cols.size)), np.zeros((t, cols.size, cols.size))
+    # the leg rows of the parameter Jacobian, the pose Jacobian and bᵀb at the current poses:
+    # they predict the poses of the next parameters (the implicit function's derivative)
+    js, b_leg, hess = np.zeros((t, 6, poses.shape[1], 8)), eqs[2].copy(), eqs[3].copy()
     idx = np.flatnonzero(active)
-    g[idx], h[idx] = _ml_normal_equations(full[idx], poses[idx], [e[idx] for e in eqs], inner, idx, free)
+    g[idx], h[idx], js[idx] = _ml_normal_equations(
+        full[idx], poses[idx], [e[idx] for e in eqs], inner, idx, free
+    )
     for _ in range(max_iter):
         idx = np.flatnonzero(active)
         if idx.size == 0:
@@ -153,7 +158,11 @@ def solve_ml(full0, full, observed, readings, euler, mask, noise, alive, xtol, m
         small = np.linalg.norm(dx, axis=1) <= xtol * (xtol + np.linalg.norm(x, axis=1))
         trial = full[idx].copy()
         trial[:, cols] += dx * scale
-        trial_poses, *trial_eqs = inner.solve(trial, poses[idx], idx)
+        step = np.zeros((idx.size, N_ALL_PARAMETERS))
+        step[:, free] = dx
+        de = np.einsum("tijc,tic->tji", js[idx], step.reshape(-1, 6, 8))  # change of e_leg, (k, m, 6)
+        guess = poses[idx] - cholesky_solve(hess[idx], np.einsum("tmil,tmi->tml", b_leg[idx], de))
+        trial_poses, *trial_eqs = inner.solve(trial, guess, idx)
         cost_new = cost_of(trial_eqs)
         predicted = -np.einsum("ti,ti->t", gi, dx) - 0.5 * np.einsum("ti,tij,tj->t", dx, hi, dx)
         gain = (cost[idx] - cost_new) / np.where(predicted > 0, predicted, np.inf)
@@ -167,7 +176,9 @@ def solve_ml(full0, full, observed, readings, euler, mask, noise, alive, xtol, m
         active[idx[small]] = False
         again = accept & ~small
         if again.any():
-            g[idx[again]], h[idx[again]] = _ml_normal_equations(
-                trial[again], trial_poses[again], [e[again] for e in trial_eqs], inner, idx[again], free
+            new = idx[again]
+            g[new], h[new], js[new] = _ml_normal_equations(
+                trial[again], trial_poses[again], [e[again] for e in trial_eqs], inner, new, free
             )
+            b_leg[new], hess[new] = trial_eqs[2][again], trial_eqs[3][again]
     return full, status, iterations, cost
