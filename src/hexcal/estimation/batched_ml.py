@@ -61,21 +61,30 @@ class _Poses:
 
     def solve(self, full, poses, idx):
         """Gauss–Newton over every pose of trials ``idx``, warm-started at ``poses``: the poses
-        and :meth:`equations` there."""
-        poses = poses.copy()
-        for _ in range(_INNER_MAX_ITER):
-            eqs = self.equations(full, poses, idx)
+        and :meth:`equations` there. Each iteration works on the trials not yet settled."""
+        poses = np.array(poses)
+        out: list[np.ndarray] = []
+        todo = np.arange(len(idx))
+        last = np.zeros(len(idx), dtype=bool)  # converged: only the equations at the last step are due
+        for _ in range(_INNER_MAX_ITER + 1):
+            eqs = self.equations(full[todo], poses[todo], idx[todo])
+            if not out:
+                out = [np.empty((len(idx), *e.shape[1:])) for e in eqs]
+            for whole, part in zip(out, eqs, strict=True):
+                whole[todo] = part
             e_leg, e_inst, b_leg, hess = eqs
             step = cholesky_solve(hess, np.einsum("tmki,tmk->tmi", b_leg, e_leg) + e_inst @ self.w)
             size = np.max(np.abs(step), axis=(1, 2))
-            scale = 1.0 + np.max(np.abs(poses), axis=(1, 2))
-            settled = ~np.isfinite(size)
-            if np.all(settled | (size < 1e-4 * _INNER_TOL * scale)):
-                return poses, *eqs  # the step is below rounding: the equations here are final
-            poses = poses - step
-            if np.all(settled | (size < _INNER_TOL * scale)):
+            scale = 1.0 + np.max(np.abs(poses[todo]), axis=(1, 2))
+            # a trial moves on unless its step is below rounding (the equations here are final),
+            # not finite, or it converged at the previous step
+            moving = np.isfinite(size) & (size >= 1e-4 * _INNER_TOL * scale) & ~last[todo]
+            poses[todo[moving]] -= step[moving]
+            last[todo[moving]] = size[moving] < _INNER_TOL * scale[moving]
+            todo = todo[moving]
+            if todo.size == 0:
                 break
-        return poses, *self.equations(full, poses, idx)
+        return poses, *out
 
 
 def _ml_normal_equations(full, poses, eqs, inner, idx, free):
