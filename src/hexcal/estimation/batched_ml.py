@@ -32,6 +32,8 @@ from hexcal.estimation.bounds import LEG_SIGMA_FLOOR, POSE_VARIANCE_FLOOR
 #: :mod:`hexcal.estimation.likelihood`).
 _INNER_MAX_ITER = 20
 _INNER_TOL = 1e-12
+#: A pose step below this (relative) is rounding: the equations before it are final.
+_SETTLED = 1e-14
 #: Maximum likelihood starts from a ``length`` estimate to this step tolerance, near enough
 #: for its outer iteration to start with almost no damping.
 ML_START_XTOL, ML_LAMBDA0 = 1e-6, 1e-9
@@ -78,7 +80,7 @@ class _Poses:
             scale = 1.0 + np.max(np.abs(poses[todo]), axis=(1, 2))
             # a trial moves on unless its step is below rounding (the equations here are final),
             # not finite, or it converged at the previous step
-            moving = np.isfinite(size) & (size >= 1e-4 * _INNER_TOL * scale) & ~last[todo]
+            moving = np.isfinite(size) & (size >= _SETTLED * scale) & ~last[todo]
             poses[todo[moving]] -= step[moving]
             last[todo[moving]] = size[moving] < _INNER_TOL * scale[moving]
             todo = todo[moving]
