@@ -94,6 +94,7 @@ def fit_ml(
     noise: NoiseModel | None = None,
     xtol: float = 1e-10,
     max_nfev: int | None = 500,
+    polish: int = 0,
     **_: Any,
 ) -> IdentificationResult:
     """Maximum-likelihood identification with the poses as nuisance parameters.
@@ -106,6 +107,9 @@ def fit_ml(
     xtol : float
     max_nfev : int, optional
         Limit on evaluations (a well-posed fit needs about ten).
+    polish : int
+        Gauss–Newton steps after the outer Levenberg–Marquardt, to resolve the optimum
+        within rounding (:func:`hexcal.estimation.least_squares.solve_least_squares`).
 
     Returns
     -------
@@ -119,7 +123,7 @@ def fit_ml(
     problem.check_size()
     model = problem.model
     if model.measures_pose and not np.any(model.covariance(noise) != 0):
-        return fit_least_squares(problem, "length").replace(method="ml")
+        return fit_least_squares(problem, "length", polish=polish).replace(method="ml")
     inner = PoseProjection(problem, noise)
     x0 = np.zeros(problem.n_free)
     if model.measures_pose:
@@ -136,7 +140,7 @@ def fit_ml(
     else:
         problem.check_rank(inner.jacobian(x0))
     sol = solve_least_squares(
-        inner.residuals, inner.jacobian, x_start, xtol=xtol, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev
+        inner.residuals, inner.jacobian, x_start, polish, xtol=xtol, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev
     )
     _, e, _ = inner.evaluate(sol.x)
     dof = int(problem.observation_counts().sum()) - problem.n_free
