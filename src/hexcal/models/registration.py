@@ -10,7 +10,7 @@ RMS distance left over says how well the nominal machine and setup explain the d
 >>> import numpy as np
 >>> pts = np.array([[0., 0, 0], [100, 0, 0], [0, 100, 0], [0, 0, 100]])
 >>> frame, res = rigid_fit(pts + [1000, 0, 0], pts, "XYZ")
->>> np.round(frame, 6).tolist(), round(res, 9)
+>>> (np.round(frame, 6) + 0.0).tolist(), round(res, 9)
 ([1000.0, 0.0, 0.0, 0.0, 0.0, 0.0], 0.0)
 """
 

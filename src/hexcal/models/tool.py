@@ -49,7 +49,7 @@ class ToolModel(MeasurementModel):
 
     >>> from hexcal.models.setup import Setup
     >>> model = ToolModel(Setup(np.zeros(6), tool=[0, 0, 60, 0, 0, 0]))
-    >>> model.predict(model.setup.vector(), np.zeros((1, 6)), "XYZ")
+    >>> model.predict(model.setup.vector(), np.zeros((1, 6)), "XYZ").round(9) + 0.0
     array([[ 0.,  0., 60.,  0.,  0.,  0.]])
     """
 
