@@ -22,7 +22,11 @@ from hexcal.estimation.gauge import gauge_freedoms, unidentifiable
 from hexcal.estimation.instrument import instrument_parameters
 from hexcal.estimation.model_bounds import gauge_fixed_covariance, projected_jacobian
 from hexcal.estimation.problem import Problem
-from hexcal.models.instrument_data import instrument_model, simulate_target_measurements, simulate_tool_measurements
+from hexcal.models.instrument_data import (
+    instrument_model,
+    simulate_target_measurements,
+    simulate_tool_measurements,
+)
 from hexcal.models.setup import Setup
 
 #: The frame the table's instrument stands in (any frame gives the same ranks).
@@ -104,7 +108,11 @@ def format_table(rows: list[dict[str, Any]]) -> str:
     ]
     for r in rows:
         setup_n = r["parameters"] - r["machine_parameters"]
-        ok = "yes" if r["identifiable"] else f"no: {len(r['unidentifiable'])} more ({'; '.join(r['unidentifiable'])})"
+        ok = (
+            "yes"
+            if r["identifiable"]
+            else f"no: {len(r['unidentifiable'])} more ({'; '.join(r['unidentifiable'])})"
+        )
         out.append(
             f"| {r['instrument']} | {r['frame']} | {r['machine_parameters']} + {setup_n} | "
             f"{r['gauges']} | {r['rank']} | {ok} | {1000 * r['joint_bound_mm']:.1f} |"
