@@ -12,7 +12,7 @@ from hexcal.core.presets import preset
 from hexcal.errors import IdentificationError
 from hexcal.estimation import estimate
 from hexcal.estimation.gauge import apply_convention, gauge_freedoms
-from hexcal.estimation.instrument import identify_instrument
+from hexcal.estimation.instrument import identify_instrument, instrument_parameters
 from hexcal.estimation.model_bounds import model_cramer_rao
 from hexcal.estimation.problem import Problem
 from hexcal.models.instrument_data import (
@@ -24,6 +24,7 @@ from hexcal.models.instrument_data import (
 from hexcal.models.registration import register_frame
 from hexcal.models.setup import Setup
 from hexcal.models.targets import TargetModel
+from hexcal.models.tool import ToolModel
 from tracker_cases import general_machines, poses, tracker_setups
 
 NOISE = NoiseModel(leg=0.005, position=0.015, orientation=2e-5, distribution="normal")
@@ -89,6 +90,31 @@ def test_full_pose_setup_gives_the_full_pose_result():
     # the orientation residual is a rotation vector, equal to the Euler difference to first order
     assert np.abs((out.result.values - ref.values) / ref.stderr).max() < 1e-2
     np.testing.assert_allclose(out.result.stderr, ref.stderr, rtol=1e-3)
+    # with the Euler-angle residual it is the full-pose model exactly
+    exact = identify_instrument(
+        nominal, meas, setup, NoiseModel(), model=ToolModel(setup, orientation="euler")
+    )
+    # the same likelihood: equal to the solvers' tolerance (1e-6 of a standard error)
+    assert np.abs((exact.result.values - ref.values) / ref.stderr).max() < 1e-5
+    np.testing.assert_allclose(exact.result.stderr, ref.stderr, rtol=1e-6)
+    np.testing.assert_allclose(exact.result.residuals, ref.residuals, atol=1e-6)
+
+
+def test_fit_and_fix_accept_setup_groups(machines):
+    nominal, true = machines
+    true_setup, start = tracker_setups(3)
+    data = simulate_target_measurements(nominal, true, true_setup, poses(nominal, 40, 1), None, 0.0, 2)
+    params = instrument_parameters(nominal, start, fix=("frame", "t2.z"))
+    assert not params.vary[params.index("frame.a")] and not params.vary[params.index("t2.z")]
+    assert params.vary[params.index("t2.y")] and params.vary[params.index("u1.x")]
+    held = instrument_parameters(
+        nominal, Setup(None, start.targets, fixed=("targets",)), fit="joints,l0,targets"
+    )
+    assert not held.vary[48:].any()
+    # targets known exactly: only the base gauge is left
+    known = Setup(None, true_setup.targets, fixed=("targets",))
+    out = identify_instrument(nominal, data, known)
+    assert len(out.gauges) == 6 and all(g.startswith("base") for g in out.gauges)
 
 
 def test_tool_with_unknown_frame_noise_free(machines):

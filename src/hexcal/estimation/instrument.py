@@ -41,6 +41,7 @@ from hexcal.estimation.likelihood import PoseProjection
 from hexcal.estimation.model_bounds import gauge_fixed_covariance
 from hexcal.estimation.problem import Problem
 from hexcal.estimation.result import IdentificationResult, rms
+from hexcal.models.base import MeasurementModel
 from hexcal.models.instrument_data import instrument_model
 from hexcal.models.registration import Registration, register_frame
 from hexcal.models.setup import Setup
@@ -161,6 +162,7 @@ def identify_instrument(
     fix: Iterable[str] = (),
     xtol: float = 1e-10,
     max_nfev: int | None = 200,
+    model: MeasurementModel | None = None,
 ) -> InstrumentResult:
     """Maximum-likelihood identification of the machine and the instrument setup.
 
@@ -176,6 +178,10 @@ def identify_instrument(
         Default the seed paper's (target coordinates: its ``position`` noise).
     fit, fix
         Parameter groups and names (``frame``, ``targets``, ``tool`` as well as the machine's).
+    xtol, max_nfev
+        Solver tolerance and evaluation limit.
+    model : MeasurementModel, optional
+        Replaces the setup's default model (e.g. ``ToolModel(setup, orientation="euler")``).
 
     Returns
     -------
@@ -186,7 +192,7 @@ def identify_instrument(
     if setup.auto:
         registration = register_frame(start, setup, data)
         setup = setup.with_vector(np.concatenate([registration.frame, setup.vector()[6:]]))
-    model = instrument_model(setup)
+    model = instrument_model(setup) if model is None else model
     params = instrument_parameters(start, setup, fit, fix)
     problem = Problem(start, data, model, parameters=params)
     problem.check_size()

@@ -14,7 +14,9 @@ predicted orientation, expressed in Euler-angle increments at the measured orien
 ``δθ = W_obs⁻ᵀ ω`` (``W`` the rows of the rotation axes,
 :func:`hexcal.core.conventions.euler_axes`). To first order it equals the Euler-angle
 difference, so the pose noise applies unchanged; it is well defined at any angle away from
-gimbal lock of the reported angles.
+gimbal lock of the reported angles. ``ToolModel(setup, orientation="euler")`` uses the
+difference of Euler angles instead (wrapped to ``(-π, π]``): with an identity frame and tool
+it is exactly the full-pose model.
 """
 
 from __future__ import annotations
@@ -57,10 +59,13 @@ class ToolModel(MeasurementModel):
     size = 6
     measures_pose = False
 
-    def __init__(self, setup: Setup | None = None) -> None:
+    def __init__(self, setup: Setup | None = None, orientation: str = "rotvec") -> None:
         self.setup = Setup(None, tool=np.zeros(6)) if setup is None else setup
         if self.setup.kind != "tool":
             raise UsageError("the tool model needs a setup with a tool")
+        if orientation not in ("rotvec", "euler"):
+            raise UsageError(f"orientation residual must be 'rotvec' or 'euler', got {orientation!r}")
+        self.orientation = orientation
 
     def parameters(self) -> ParameterSet:
         return self.setup.parameters()
@@ -92,6 +97,10 @@ class ToolModel(MeasurementModel):
     ) -> NDArray[np.float64]:
         """Position difference and rotation-vector orientation residual ``(m, 6)`` (see module)."""
         rot_f, t_f, *_, point, rot = self._frames(setup, poses, euler)
+        if self.orientation == "euler":
+            diff = matrix_to_euler(rot, euler) - observed[:, 3:]
+            angular = (diff + np.pi) % (2 * np.pi) - np.pi
+            return np.concatenate([point @ rot_f.T + t_f - observed[:, :3], angular], axis=1)
         rot_obs = rotation_matrices(observed[:, 3:], euler)
         omega = rotation_vectors(rot @ rot_obs.transpose(0, 2, 1))
         w_obs = euler_axes(observed[:, 3:], euler)
