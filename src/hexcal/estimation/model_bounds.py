@@ -68,3 +68,12 @@ def model_cramer_rao(
         poses = problem.model.start_poses(problem.start, problem.setup(full), problem.data)
     jac = projected_jacobian(problem, noise, full, poses)
     return gauge_fixed_covariance(problem, jac, gauge_freedoms(problem, full))
+
+
+def information_blocks(
+    problem: Problem, noise: NoiseModel, full: NDArray[np.float64], poses: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Per-observation Fisher information ``A_jᵀ (I - Q_j Q_jᵀ) A_j``, shape ``(m, n_free, n_free)``
+    (solver units; their sum is the information of the whole set, for pose selection)."""
+    jac = projected_jacobian(problem, noise, full, poses).reshape(len(poses), -1, problem.n_free)
+    return np.einsum("mri,mrj->mij", jac, jac)
