@@ -149,3 +149,10 @@ def test_tool_export_with_decimal_commas(tmp_path):
     path.write_text("dl1;dl2;dl3;dl4;dl5;dl6;x;y;z;a_deg;b_deg;c_deg\n0;0;0;0;0;0;1,5;2;3;10;0;0\n")
     got = read_tool_measurements(path, "XYZ")
     np.testing.assert_allclose(got.poses[0], [1.5, 2, 3, np.deg2rad(10), 0, 0])
+
+
+def test_decimal_commas_in_a_comma_separated_file_are_explained(tmp_path):
+    path = tmp_path / "x.csv"
+    path.write_text("dl1,dl2,dl3,dl4,dl5,dl6,t1.x,t1.y,t1.z\n0,0,0,0,0,0,1,5,2,3\n")
+    with pytest.raises(InputError, match="decimal commas in a comma-separated file"):
+        read_target_measurements(path, Setup(None, {"t1": [0.0, 0.0, 0.0]}))

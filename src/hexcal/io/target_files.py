@@ -13,6 +13,7 @@ another (an override that contradicts the file), an :class:`InputWarning` says s
 from __future__ import annotations
 
 import csv
+import itertools
 import math
 import os
 import re
@@ -118,7 +119,16 @@ def read_export(
     rows, lines = [], []
     for line, row in body:
         if len(row) != len(header):
-            raise InputError(f"{name}: line {line}: {len(row)} fields, but the header has {len(header)}")
+            hint = ""
+            if (
+                delimiter == ","
+                and len(row) > len(header)
+                and any(_DECIMAL_COMMA.match(f"{x},{y}") for x, y in itertools.pairwise(row))
+            ):
+                hint = " (decimal commas in a comma-separated file? export with ';' between fields)"
+            raise InputError(
+                f"{name}: line {line}: {len(row)} fields, but the header has {len(header)}{hint}"
+            )
         if decimal == ",":
             for c in row:
                 if "." in c and "," in c:
