@@ -145,3 +145,15 @@ def test_malformed_setups_one_clear_error(data, message):
 def test_general_machine_is_not_symmetric():
     nominal, true = general_machines()
     assert np.abs(true.to_vector() - nominal.to_vector()).max() > 0.5
+
+
+def test_setup_angles_convert_to_the_geometry_sequence():
+    from scipy.spatial.transform import Rotation
+
+    setup = Setup(FRAME, TARGETS3, euler="ZYX")
+    moved = setup.in_euler("XYZ")
+    assert moved.euler == "XYZ" and setup.in_euler("ZYX") is setup
+    a = Rotation.from_euler("ZYX", FRAME[3:]).as_matrix()
+    b = Rotation.from_euler("XYZ", moved.frame[3:]).as_matrix()
+    np.testing.assert_allclose(a, b, atol=1e-12)
+    np.testing.assert_array_equal(moved.frame[:3], FRAME[:3])

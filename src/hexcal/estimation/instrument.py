@@ -188,6 +188,7 @@ def identify_instrument(
     InstrumentResult
     """
     noise = NoiseModel() if noise is None else noise
+    setup = setup.in_euler(start.euler)
     registration = None
     if setup.auto:
         registration = register_frame(start, setup, data)

@@ -200,6 +200,19 @@ class Setup:
             return replace(self, frame=values[:6], targets=targets, calibration=calibration)
         return replace(self, frame=values[:6], tool=values[6:], calibration=calibration)
 
+    def in_euler(self, euler: str) -> Setup:
+        """The same setup with its angles in the Euler sequence ``euler`` (the geometry's):
+        a setup file's own ``euler`` is converted, one without keeps its angles."""
+        if self.euler is None or self.euler == euler:
+            return replace(self, euler=euler) if self.euler is None else self
+        changes: dict[str, Any] = {"euler": euler}
+        for what in ("frame", "tool"):
+            pose = getattr(self, what)
+            if pose is not None:
+                angles = matrix_to_euler(rotation_matrices(pose[3:], self.euler), euler)
+                changes[what] = np.concatenate([pose[:3], angles])
+        return replace(self, **changes)
+
     # -- files --------------------------------------------------------------------------
     @classmethod
     def from_dict(cls, data: Any) -> Setup:
