@@ -155,3 +155,16 @@ def test_too_few_poses_for_one_target_refused(machines):
     data = simulate_target_measurements(nominal, true, true_setup, poses(nominal, 12, 1), None, 0.0, 2)
     with pytest.raises(IdentificationError):
         identify_instrument(nominal, data, start_setup, NOISE)
+
+
+def test_model_bound_of_the_full_pose_model_is_the_existing_bound():
+    from hexcal.estimation.bounds import cramer_rao_covariance, planned_measurements
+
+    nominal = preset("paper-hmt")
+    commanded = poses(nominal, 30, 3)
+    data = planned_measurements(nominal, commanded)
+    problem = Problem(nominal, data)
+    noise = NoiseModel()
+    ours = model_cramer_rao(problem, noise, problem.full0, commanded)
+    ref = cramer_rao_covariance(nominal, commanded, noise, problem.machine_mask, data.readings)
+    np.testing.assert_allclose(np.sqrt(np.diag(ours)), np.sqrt(np.diag(ref)), rtol=1e-6)
