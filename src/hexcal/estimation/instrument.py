@@ -58,8 +58,8 @@ def instrument_parameters(
         groups = [g for g in ("frame", setup.kind) if g in params.groups]
         fit = DEFAULT_FIT + "," + ",".join(groups)
     fix = list(fix)
-    unknown_fix = [f for f in fix if f in params.groups]
-    for group in unknown_fix:  # a group name in fix holds the whole group
+    group_fix = [f for f in fix if f in params.groups]
+    for group in group_fix:  # a group name in fix holds the whole group
         fix.remove(group)
         fix.extend(params.groups[group])
     params = params.select(fit, fix)
