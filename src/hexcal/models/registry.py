@@ -1,7 +1,7 @@
 """Measurement models by name: a new instrument is one new module plus one line here.
 
 >>> sorted(MODELS)
-['pose']
+['pose', 'targets', 'tool']
 >>> model_by_name("pose").measures_pose
 True
 """
@@ -11,10 +11,14 @@ from __future__ import annotations
 from hexcal.errors import UsageError
 from hexcal.models.base import MeasurementModel
 from hexcal.models.pose import FullPoseModel
+from hexcal.models.targets import TargetModel
+from hexcal.models.tool import ToolModel
 
 #: Measurement model classes by name.
 MODELS: dict[str, type[MeasurementModel]] = {
     FullPoseModel.name: FullPoseModel,
+    TargetModel.name: TargetModel,
+    ToolModel.name: ToolModel,
 }
 
 
