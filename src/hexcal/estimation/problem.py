@@ -245,10 +245,7 @@ class Problem:
         lengths, jp = pose_jacobian_from_arrays(u, s, poses, self.euler)
         model_lengths = machine[36:42] + machine[42:48] * self.readings
         present, w = self.present, instrument_whitener
-        if hasattr(self.model, "residual"):  # e.g. a rotation-vector orientation residual
-            delta = self.model.residual(setup, poses, self.euler, self.observed)
-        else:
-            delta = self.model.predict(setup, poses, self.euler) - self.observed
+        delta = self.model.residual(setup, poses, self.euler, self.observed)
         if not self.complete:
             delta = np.where(present, delta, 0.0)
         e_inst = delta @ w.T

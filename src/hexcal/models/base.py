@@ -57,6 +57,17 @@ class MeasurementModel(ABC):
     ) -> NDArray[np.float64]:
         """Predicted instrument values ``(m, size)`` at true poses ``(m, 6)``."""
 
+    def residual(
+        self,
+        setup: NDArray[np.float64],
+        poses: NDArray[np.float64],
+        euler: str,
+        observed: NDArray[np.float64],
+    ) -> NDArray[np.float64]:
+        """Instrument residual ``(m, size)`` at true poses: ``predict - observed`` by default; a
+        model overrides it where a plain difference is not a distance (orientations)."""
+        return self.predict(setup, poses, euler) - observed
+
     @abstractmethod
     def pose_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str

@@ -100,7 +100,7 @@ class TargetMeasurements:
         )
 
 
-def _cross_axes(axes: NDArray[np.float64], vectors: NDArray[np.float64]) -> NDArray[np.float64]:
+def cross_axes(axes: NDArray[np.float64], vectors: NDArray[np.float64]) -> NDArray[np.float64]:
     """``w_k × v`` for axes ``(..., 3 (k), 3)`` and vectors ``(..., 3)``: ``(..., 3 (coord), 3 (k))``."""
     return np.moveaxis(np.cross(axes, vectors[..., None, :]), -2, -1)
 
@@ -159,7 +159,7 @@ class TargetModel(MeasurementModel):
         axes = euler_axes(poses[:, 3:], euler)  # (m, 3, 3) rows w_k
         jac = np.empty((m, n, 3, 6))
         jac[..., :3] = rot_f
-        jac[..., 3:] = np.einsum("ab,mnbk->mnak", rot_f, _cross_axes(axes[:, None], rq))
+        jac[..., 3:] = np.einsum("ab,mnbk->mnak", rot_f, cross_axes(axes[:, None], rq))
         return jac.reshape(m, 3 * n, 6)
 
     def setup_jacobian(
@@ -170,7 +170,7 @@ class TargetModel(MeasurementModel):
         axes_f = euler_axes(setup[3:6], euler)
         jac = np.zeros((m, n, 3, 6 + 3 * n))
         jac[..., :3] = np.eye(3)
-        jac[..., 3:6] = _cross_axes(axes_f, p @ rot_f.T)
+        jac[..., 3:6] = cross_axes(axes_f, p @ rot_f.T)
         rr = np.einsum("ab,mbc->mac", rot_f, rot_p)  # d y_i / d q_i
         for i in range(n):  # loop over targets, not poses
             jac[:, i, :, 6 + 3 * i : 9 + 3 * i] = rr

@@ -33,7 +33,7 @@ from hexcal.models.base import MeasurementModel
 from hexcal.models.legs import pose_frames
 from hexcal.models.pose import Measurements
 from hexcal.models.setup import Setup, frame_transform, matrix_to_euler, transform_frame
-from hexcal.models.targets import _cross_axes, fk_start_poses
+from hexcal.models.targets import cross_axes, fk_start_poses
 
 
 def rotation_vectors(matrices: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -120,7 +120,7 @@ class ToolModel(MeasurementModel):
         axes = euler_axes(poses[:, 3:], euler)
         jac = np.zeros((len(poses), 6, 6))
         jac[:, :3, :3] = rot_f
-        jac[:, :3, 3:] = rot_f @ _cross_axes(axes, rt)
+        jac[:, :3, 3:] = rot_f @ cross_axes(axes, rt)
         jac[:, 3:, 3:] = self._angular(rot, euler, rot_f @ axes.transpose(0, 2, 1))
         return jac
 
@@ -133,7 +133,7 @@ class ToolModel(MeasurementModel):
         axes_t = euler_axes(setup[9:12], euler)
         jac = np.zeros((m, 6, 12))
         jac[:, :3, :3] = np.eye(3)
-        jac[:, :3, 3:6] = _cross_axes(axes_f, point @ rot_f.T)
+        jac[:, :3, 3:6] = cross_axes(axes_f, point @ rot_f.T)
         rr = np.einsum("ab,mbc->mac", rot_f, rot_p)
         jac[:, :3, 6:9] = rr
         phi = np.concatenate([np.broadcast_to(axes_f.T, (m, 3, 3)), rr @ axes_t.T], axis=2)
