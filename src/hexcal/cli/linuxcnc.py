@@ -14,12 +14,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import datetime
-import hashlib
 import os
-import secrets
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -84,6 +80,8 @@ def write_all_or_nothing(folder: Path, files: dict[str, str]) -> None:
     done: list[str] = []
     try:
         for name, text in files.items():
+            import tempfile  # deferred: commands import what they use (fast --help)
+
             fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=".tmp", dir=folder)
             temps[name] = tmp
             with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
@@ -94,6 +92,8 @@ def write_all_or_nothing(folder: Path, files: dict[str, str]) -> None:
         for name in files:
             target = folder / name
             if target.exists():
+                import secrets
+
                 backup = str(folder / f".{name}.{os.getpid()}.{secrets.token_hex(6)}.old")
                 os.link(target, backup)  # fails, rather than overwrites, if the name exists
                 backups[name] = backup
@@ -127,6 +127,9 @@ def cmd_export(args: argparse.Namespace) -> None:
     else:
         path = Path(args.geometry)
         data = path.read_bytes()
+        import datetime
+        import hashlib
+
         sha256 = hashlib.sha256(data).hexdigest()
         mtime = datetime.datetime.fromtimestamp(path.stat().st_mtime, tz=datetime.UTC)
         source, date = str(path), mtime.strftime("%Y-%m-%dT%H:%M:%SZ")
