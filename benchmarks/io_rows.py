@@ -45,6 +45,11 @@ if kind == "ik":
     with OutputSet([legs_path], inputs=[poses_path]) as out:
         out.check()
         rows = write_table_blocks(legs_path, LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS, blocks(), outputs=out)
+elif kind == "baseline":  # a bare pass of the csv module over the file, converting nothing
+    import csv
+    with open(poses_path, newline="") as fh:
+        for row in csv.reader(fh):
+            rows += 1
 elif kind == "fk":
     for block in iter_legs(legs_path):
         rows += len(block.ids)
@@ -75,7 +80,9 @@ def main() -> None:
         write_poses(poses_path, poses, ids=[f"p{k}" for k in range(args.rows)])
         print(f"write {args.rows:,} poses (whole): {time.perf_counter() - start:.1f} s")
         del poses
+        base = None
         for kind, label, limit_s, limit_gb in (
+            ("baseline", "baseline: csv.reader pass over the pose file", None, 10.0),
             ("ik", "ik-style blocks read+compute+write", 20, 1.0),
             ("fk", "fk-style blocks read (legs)", 20, 1.0),
             ("whole", "whole read_poses (identify-style)", None, 2.0),
@@ -88,11 +95,13 @@ def main() -> None:
             )
             fig = json.loads(done.stdout.strip().splitlines()[-1])
             gb = fig["peak_bytes"] / 1e9
+            base = base or fig["cpu"]
+            ratio = f", {fig['cpu'] / base:.1f} x the baseline's CPU"
             ok = gb < limit_gb and (limit_s is None or fig["seconds"] < limit_s)
             target = f"< {limit_s} s and < {limit_gb} GB" if limit_s else f"< {limit_gb} GB"
             print(
                 f"{label}: {fig['rows']:,} rows in {fig['seconds']:.1f} s wall ({fig['cpu']:.1f} s CPU), "
-                f"peak RSS {gb:.2f} GB "
+                f"peak RSS {gb:.2f} GB{ratio} "
                 f"(target {target}): {'PASS' if ok else 'MISS'}"
             )
 

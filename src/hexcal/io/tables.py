@@ -39,7 +39,7 @@ from hexcal.io.inputs import DEFAULT_MAX_ROWS, open_input, read_text, too_many_r
 from hexcal.io.outputs import OutputError, OutputSet
 
 #: Rows converted (or read, by :func:`iter_tables`) at a time.
-BLOCK_ROWS = 65_536
+BLOCK_ROWS = 16_384
 
 _CHUNK_CHARS = 1 << 22
 _BOM = "\ufeff"
