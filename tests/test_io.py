@@ -629,3 +629,32 @@ def test_reading_leaves_input_files_unchanged(tmp_path):
     after = {p: (p.read_bytes(), p.stat().st_mtime_ns) for p in paths}
     assert after == before
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in paths)
+
+
+def test_table_text_is_what_the_csv_module_writes(tmp_path):
+    """The block writer writes exactly what csv.writer with format(v, '.15g') wrote before."""
+    import csv
+    import io
+
+    rng = np.random.default_rng(4)
+    data = rng.normal(0, 1, (40, 3)) * 10.0 ** rng.integers(-20, 20, (40, 3))
+    data[0] = [-0.0, 0.0, 1e300]
+    data[1] = [0.1 + 0.2, 123456789012345678.0, -5e-324]
+    ids = [f"p{k}" for k in range(40)]
+    ids[2], ids[3], ids[4] = 'with,comma', 'with "quote"', " spaced "
+    expected = io.StringIO()
+    expected.write("# a\n# b\n")
+    writer = csv.writer(expected, lineterminator="\n")
+    writer.writerow(["id", "u", "v,w", "x"])
+    for k, row in enumerate(data):
+        writer.writerow([ids[k]] + [format(float(v), ".15g") for v in row])
+    write_table(tmp_path / "t.csv", ["u", "v,w", "x"], data, ids, comment="a\nb")
+    assert (tmp_path / "t.csv").read_text(encoding="utf-8") == expected.getvalue()
+    read = read_table(tmp_path / "t.csv")
+    assert read.ids()[2:5] == ("with,comma", 'with "quote"', "spaced")
+
+
+def test_measurement_files_have_a_lower_row_limit_than_other_tables():
+    from hexcal.io import DEFAULT_MAX_ROWS, MEASUREMENT_MAX_ROWS
+
+    assert MEASUREMENT_MAX_ROWS == 100_000 < DEFAULT_MAX_ROWS == 1_000_000

@@ -22,14 +22,37 @@ from hexcal.errors import GeometryError
 def _frozen(arr: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
     try:
         out = np.array(arr, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise GeometryError(f"{what} must be numeric: {exc}") from None
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise GeometryError(f"{what} must be numeric: {_short(exc)}") from None
     if out.shape != shape:
         raise GeometryError(f"{what} must have shape {shape}, got {out.shape}")
     if not np.all(np.isfinite(out)):
         raise GeometryError(f"{what} contains NaN or inf")
     out.flags.writeable = False
     return out
+
+
+#: Two joints of one frame closer than this (mm) are one joint: refused.
+JOINT_SEPARATION = 1e-6
+
+
+def _positive(values: NDArray[np.float64], what: str, prefix: str) -> None:
+    bad = np.flatnonzero(values <= 0)
+    if bad.size:
+        k = int(bad[0])
+        raise GeometryError(f"{what} must be > 0, got {prefix}{k + 1} = {values[k]:g}")
+
+
+def _distinct(joints: NDArray[np.float64], what: str, prefix: str) -> None:
+    gaps = np.linalg.norm(joints[:, None, :] - joints[None, :, :], axis=-1)
+    gaps[np.diag_indices(len(joints))] = np.inf
+    i, j = np.unravel_index(int(np.argmin(gaps)), gaps.shape)
+    if gaps[i, j] < JOINT_SEPARATION:
+        i, j = sorted((int(i), int(j)))
+        raise GeometryError(
+            f"{what}: joints {prefix}{i + 1} and {prefix}{j + 1} coincide ({joints[i].tolist()}); "
+            "every leg needs its own joint"
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,15 +103,15 @@ class Geometry:
             _frozen(self.initial_leg_lengths, (6,), "initial_leg_lengths"),
         )
         put(self, "leg_gains", _frozen(self.leg_gains, (6,), "leg_gains"))
+        _positive(self.initial_leg_lengths, "initial_leg_lengths", "l0_")
+        _positive(self.leg_gains, "leg_gains", "g")
         if self.leg_length_limits is not None:
             lim = _frozen(self.leg_length_limits, (2,), "leg_length_limits")
-            if not lim[0] < lim[1]:
+            if not 0 < lim[0] < lim[1]:
                 raise GeometryError(
-                    f"leg_length_limits must be [min, max] with min < max, got {lim.tolist()}"
+                    f"leg_length_limits must be [min, max] with 0 < min < max, got {lim.tolist()}"
                 )
             put(self, "leg_length_limits", lim)
-        if self.home_pose is not None:
-            put(self, "home_pose", _frozen(self.home_pose, (6,), "home_pose"))
         if self.workspace is not None:
             box = _frozen(self.workspace, (6, 2), "workspace")
             if np.any(box[:, 0] > box[:, 1]):
@@ -100,6 +123,50 @@ class Geometry:
             check_euler(self.euler)
         except ValueError as exc:
             raise GeometryError(str(exc)) from None
+        if self.home_pose is not None:
+            put(self, "home_pose", _frozen(self.home_pose, (6,), "home_pose"))
+
+    def check_plausible(self) -> None:
+        """Refuse a geometry that no machine can have (:class:`GeometryError`, one line).
+
+        Beyond the checks of construction (finite values, shapes, positive gains and initial
+        lengths, ``0 < min < max`` leg limits, ordered workspace): every joint distinct from
+        the other joints of its frame (within :data:`JOINT_SEPARATION`), and the home pose
+        inside the workspace box and within the leg length limits. Applied to every geometry
+        file that hexcal loads; not at construction, where intermediate or synthetic
+        geometries (tests, Monte Carlo draws) may legitimately break them.
+
+        >>> from hexcal.core.presets import preset
+        >>> preset("paper-hmt").check_plausible()
+        """
+        _distinct(self.base_joints, "base_joints", "u")
+        _distinct(self.platform_joints, "platform_joints", "s")
+        home = self.home_pose
+        if home is None:
+            return
+        if self.workspace is not None:
+            tol = 1e-9 * np.maximum(1.0, np.abs(self.workspace).max(axis=1))
+            out = np.flatnonzero((home < self.workspace[:, 0] - tol) | (home > self.workspace[:, 1] + tol))
+            if out.size:
+                k = int(out[0])
+                raise GeometryError(
+                    f"home_pose: {POSE_NAMES[k]} = {home[k]:g} is outside the workspace "
+                    f"[{self.workspace[k, 0]:g}, {self.workspace[k, 1]:g}]"
+                )
+        if self.leg_length_limits is not None:
+            from scipy.spatial.transform import Rotation  # deferred: slow to import
+
+            rot = Rotation.from_euler(self.euler, home[3:]).as_matrix()
+            lengths = np.linalg.norm(home[:3] + self.platform_joints @ rot.T - self.base_joints, axis=1)
+            lo, hi = self.leg_length_limits
+            tol = 1e-6 * hi
+            bad = np.flatnonzero((lengths < lo - tol) | (lengths > hi + tol))
+            if bad.size:
+                k = int(bad[0])
+                raise GeometryError(
+                    f"home_pose: leg {k + 1} would be {lengths[k]:.6g} mm long, outside "
+                    f"leg_length_limits [{lo:g}, {hi:g}]"
+                )
 
     # -- parameter vector -------------------------------------------------
     def to_vector(self, gains: bool = False) -> NDArray[np.float64]:
@@ -146,7 +213,11 @@ class Geometry:
             if key not in data:
                 raise GeometryError(f"missing required key '{key}'")
         if data["units"] != "mm":
-            raise GeometryError(f"units must be 'mm' (the only supported unit), got {data['units']!r}")
+            raise GeometryError(f"units must be 'mm' (the only supported unit), got {_short(data['units'])}")
+        if not isinstance(data.get("name", ""), (str, int, float, type(None))):
+            raise GeometryError(f"name must be text, got {_short(data['name'])}")
+        if not isinstance(data.get("euler", DEFAULT_EULER), str):
+            raise GeometryError(f"euler must be a sequence name such as XYZ, got {_short(data['euler'])}")
         known = {
             "name",
             "units",
@@ -160,9 +231,9 @@ class Geometry:
             "workspace",
             "calibration",
         }
-        unknown = sorted(set(data) - known)
+        unknown = sorted(map(repr_key, set(data) - known))
         if unknown:
-            raise GeometryError(f"unknown key(s): {', '.join(map(str, unknown))}")
+            raise GeometryError(f"unknown key(s): {', '.join(unknown)}")
         kwargs: dict[str, Any] = dict(
             base_joints=data["base_joints"],
             platform_joints=data["platform_joints"],
@@ -206,6 +277,18 @@ class Geometry:
         return out
 
 
+def _short(value: Any, most: int = 60) -> str:
+    """``repr`` of a value for a one-line message, cut to ``most`` characters."""
+    text = repr(value) if not isinstance(value, BaseException) else str(value)
+    text = " ".join(text.split())
+    return text if len(text) <= most else text[: most - 3] + "..."
+
+
+def repr_key(key: Any) -> str:
+    """A mapping key for a message: strings as they are, other keys (numbers...) as repr."""
+    return key if isinstance(key, str) else repr(key)
+
+
 def _angle_key(mapping: dict[str, Any], axis: str, where: str) -> tuple[Any, bool]:
     """Value of angle ``axis`` and whether it was given in degrees."""
     has_rad, has_deg = axis in mapping, f"{axis}_deg" in mapping
@@ -225,9 +308,9 @@ def _coordinates(mapping: Any, where: str, expected: str) -> list[tuple[str, Any
     """``(axis, value, in_degrees)`` of the six pose coordinates of a YAML mapping."""
     if not isinstance(mapping, dict):
         raise GeometryError(f"{where} must be a mapping {expected}")
-    extra = sorted(set(mapping) - _POSE_KEYS, key=str)
+    extra = sorted(map(repr_key, set(mapping) - _POSE_KEYS))
     if extra:
-        raise GeometryError(f"{where}: unknown key(s) {', '.join(map(str, extra))}")
+        raise GeometryError(f"{where}: unknown key(s) {', '.join(extra)}")
     out = []
     for axis in POSE_NAMES:
         if axis in "xyz":
@@ -245,8 +328,8 @@ def _pose_from_mapping(mapping: Any, where: str) -> NDArray[np.float64]:
     for k, (axis, value, deg) in enumerate(_coordinates(mapping, where, expected)):
         try:
             v = float(value)
-        except (TypeError, ValueError):
-            raise GeometryError(f"{where}: '{axis}' must be a number, got {value!r}") from None
+        except (TypeError, ValueError, OverflowError):
+            raise GeometryError(f"{where}: '{axis}' must be a number, got {_short(value)}") from None
         pose[k] = np.deg2rad(v) if deg else v
     return pose
 
@@ -258,10 +341,10 @@ def _box_from_mapping(mapping: Any) -> NDArray[np.float64]:
     for k, (axis, value, deg) in enumerate(coordinates):
         try:
             rng = np.array(value, dtype=float)
-        except (TypeError, ValueError):
-            raise GeometryError(f"{where}: '{axis}' must be [low, high], got {value!r}") from None
+        except (TypeError, ValueError, OverflowError):
+            raise GeometryError(f"{where}: '{axis}' must be [low, high], got {_short(value)}") from None
         if rng.shape != (2,):
-            raise GeometryError(f"{where}: '{axis}' must be [low, high], got {value!r}")
+            raise GeometryError(f"{where}: '{axis}' must be [low, high], got {_short(value)}")
         box[k] = np.deg2rad(rng) if deg else rng
     return box
 

@@ -5,9 +5,12 @@ names the file, the line and the column of the problem. Every writer writes to a
 temporary file in the target's folder and renames it, so that an output file is
 either complete or absent. Input files are only ever opened for reading.
 
-Modules: :mod:`~hexcal.io.files` (atomic writes), :mod:`~hexcal.io.geometry_file` (YAML
-geometries), :mod:`~hexcal.io.tables` (CSV), :mod:`~hexcal.io.measurement_files` (pose,
-measurement and leg files). Imports every layer below it; only ``io`` and ``cli`` touch files.
+Modules: :mod:`~hexcal.io.outputs` (:class:`OutputSet`: a command's outputs checked up
+front, staged and committed all together), :mod:`~hexcal.io.inputs` (regular files only,
+row limits, YAML with limits), :mod:`~hexcal.io.files` (atomic writes, JSON),
+:mod:`~hexcal.io.geometry_file` (YAML geometries), :mod:`~hexcal.io.tables` (CSV, whole or in
+blocks), :mod:`~hexcal.io.measurement_files` (pose, measurement and leg files).
+Imports every layer below it; only ``io`` and ``cli`` touch files.
 """
 
 from hexcal._lazy import attach
@@ -15,6 +18,8 @@ from hexcal._lazy import attach
 __getattr__, __dir__, __all__ = attach(
     __name__,
     {
+        "BLOCK_ROWS": "tables",
+        "DEFAULT_MAX_ROWS": "inputs",
         "DEGREE_SUSPICION": "measurement_files",
         "DELIMITERS": "target_files",
         "GENHEXKINS_DEFAULT_BASE": "linuxcnc",
@@ -27,17 +32,35 @@ __getattr__, __dir__, __all__ = attach(
         "LEG_READING_COLUMNS": "measurement_files",
         "LINUXCNC_EULER": "linuxcnc",
         "LegData": "measurement_files",
+        "LimitedSafeLoader": "inputs",
         "LinuxCNCFormatError": "linuxcnc",
+        "MAX_YAML_BYTES": "inputs",
+        "MAX_YAML_DEPTH": "inputs",
+        "MAX_YAML_NODES": "inputs",
+        "MEASUREMENT_MAX_ROWS": "inputs",
         "ORIENTATION_GROUPS": "measurement_files",
+        "OutputError": "outputs",
+        "OutputSet": "outputs",
         "QUATERNION_NORM_TOLERANCE": "measurement_files",
+        "STDOUT": "outputs",
         "Table": "tables",
+        "TableWriter": "table_writing",
         "UNIT_WORDS": "target_files",
+        "YamlLimitError": "inputs",
+        "active_outputs": "outputs",
         "atomic_write": "files",
+        "check_input": "inputs",
         "euler_warning": "linuxcnc",
         "export_linuxcnc": "linuxcnc",
         "import_linuxcnc": "linuxcnc_import",
+        "iter_legs": "measurement_files",
+        "iter_poses": "measurement_files",
+        "iter_tables": "tables",
         "load_geometry": "geometry_file",
         "load_setup": "setup_file",
+        "load_yaml": "inputs",
+        "open_input": "inputs",
+        "output_file": "outputs",
         "parse_hal": "linuxcnc_import",
         "parse_ini": "linuxcnc_import",
         "plain": "files",
@@ -48,14 +71,20 @@ __getattr__, __dir__, __all__ = attach(
         "read_poses": "measurement_files",
         "read_table": "tables",
         "read_target_measurements": "target_files",
+        "read_text": "inputs",
         "read_tool_measurements": "target_files",
         "save_geometry": "geometry_file",
         "save_setup": "setup_file",
+        "table_legs": "measurement_files",
         "table_poses": "measurement_files",
+        "too_many_rows": "inputs",
+        "write_json": "files",
         "write_legs": "measurement_files",
         "write_measurements": "measurement_files",
         "write_poses": "measurement_files",
-        "write_table": "tables",
+        "write_table": "table_writing",
+        "write_table_blocks": "table_writing",
         "write_target_measurements": "target_files",
+        "write_text": "files",
     },
 )

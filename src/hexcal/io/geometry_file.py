@@ -11,33 +11,33 @@ from hexcal.core.geometry import Geometry
 from hexcal.core.presets import PRESETS, preset
 from hexcal.errors import GeometryError, InputError
 from hexcal.io.files import atomic_write, plain
+from hexcal.io.inputs import load_yaml
+from hexcal.io.outputs import OutputSet
 
 
 def load_geometry(spec: str | os.PathLike[str]) -> Geometry:
-    """A geometry from a preset name or a YAML file (FORMATS.md)."""
+    """A geometry from a preset name or a YAML file (FORMATS.md).
+
+    The file must be a regular file; it is read with :func:`hexcal.io.inputs.load_yaml`
+    (safe tags only, limits on nesting and on aliases), validated by :class:`Geometry` and
+    :meth:`Geometry.check_plausible` (distinct joints, home pose inside the limits).
+    """
     if isinstance(spec, str) and spec in PRESETS:
         return preset(spec)
     path = Path(spec)
-    if not path.exists():
+    if not os.path.lexists(path):
         raise InputError(f"{path}: no such geometry file (and not a preset: {', '.join(PRESETS)})")
+    data = load_yaml(path, "YAML")
     try:
-        with open(path, encoding="utf-8") as fh:
-            data = yaml.safe_load(fh)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}: " if mark is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise InputError(f"{path}: {where}not valid YAML ({problem})") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read: {exc}") from None
-    try:
-        return Geometry.from_dict(data)
+        geometry = Geometry.from_dict(data)
+        geometry.check_plausible()
+        return geometry
     except GeometryError as exc:
         raise InputError(f"{path}: {exc}") from None
 
 
-def save_geometry(geometry: Geometry, path: str | os.PathLike[str]) -> None:
-    """Write a geometry as YAML (atomically)."""
+def save_geometry(geometry: Geometry, path: str | os.PathLike[str], outputs: OutputSet | None = None) -> None:
+    """Write a geometry as YAML (staged in ``outputs`` or the active output set, or atomically)."""
     text = yaml.safe_dump(plain(geometry.to_dict()), sort_keys=False, default_flow_style=None)
-    with atomic_write(path) as fh:
+    with atomic_write(path, outputs) as fh:
         fh.write(text)

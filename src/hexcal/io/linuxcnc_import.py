@@ -308,7 +308,7 @@ def import_linuxcnc(
     geometry_mm = Geometry(
         base_joints=base * scale if scale != 1.0 else base,
         platform_joints=platform * scale if scale != 1.0 else platform,
-        initial_leg_lengths=np.zeros(6),
+        initial_leg_lengths=np.ones(6),  # a stand-in: only its joints are used, for l0 at home
         euler=LINUXCNC_EULER,
     )
     home = _home_pose_radians(home_words)
@@ -332,8 +332,13 @@ def import_linuxcnc(
         lo, hi = max(lows) * scale, min(highs) * scale
         if len(set(lows)) > 1 or len(set(highs)) > 1:
             warnings.append(f"{ini_name}: joint limits differ: the tightest, [{lo:g}, {hi:g}] mm, are used")
-        if lo < hi:
+        if 0 < lo < hi:
             leg_limits = (lo, hi)
+        elif lo <= 0 < hi:
+            warnings.append(
+                f"{ini_name}: joint limits [{lo:g}, {hi:g}] mm are not strut lengths (min <= 0): "
+                "leg length limits not set"
+            )
         else:
             warnings.append(f"{ini_name}: joint limits leave no range: leg length limits not set")
 

@@ -5,14 +5,16 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning
-from hexcal.io.tables import Table, read_table, write_table
+from hexcal.io.inputs import DEFAULT_MAX_ROWS, MEASUREMENT_MAX_ROWS
+from hexcal.io.outputs import OutputSet
+from hexcal.io.tables import BLOCK_ROWS, Table, iter_tables, read_table, write_table
 from hexcal.models.pose import Measurements
 
 #: A quaternion whose norm differs from 1 by more than this is refused (others are
@@ -47,13 +49,13 @@ def _orientation_group(table: Table) -> str:
 def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
     """Poses ``(m, 6)`` in mm and rad from a table's pose columns (FORMATS.md)."""
     group = _orientation_group(table)
-    position = table.numbers(("x", "y", "z"))
-    values = table.numbers(ORIENTATION_GROUPS[group])
+    both = table.numbers(("x", "y", "z", *ORIENTATION_GROUPS[group]))  # each line split once
+    position, values = both[:, :3], both[:, 3:]
     if group == "rad":
         big = np.flatnonzero(np.any(np.abs(values) > DEGREE_SUSPICION, axis=1))
         if big.size:
             warnings.warn(
-                f"{table.path}: line {table.lines[big[0]]}: angles a, b, c are in radians, but "
+                f"{table.path}: line {table.line(int(big[0]))}: angles a, b, c are in radians, but "
                 f"{big.size} row(s) exceed ±π/2; if they are degrees, name the columns "
                 "a_deg, b_deg, c_deg",
                 InputWarning,
@@ -68,7 +70,7 @@ def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
         if bad.size:
             k = bad[0]
             raise InputError(
-                f"{table.path}: line {table.lines[k]}, columns 'qx, qy, qz, qw': quaternion norm "
+                f"{table.path}: line {table.line(int(k))}, columns 'qx, qy, qz, qw': quaternion norm "
                 f"{norms[k]:.6g} is not 1 (tolerance {QUATERNION_NORM_TOLERANCE:g})"
             )
         from scipy.spatial.transform import Rotation  # deferred: slow to import
@@ -79,15 +81,27 @@ def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
     return np.concatenate([position, angles], axis=1)
 
 
-def read_poses(path: str | os.PathLike[str], euler: str) -> tuple[NDArray[np.float64], tuple[str, ...]]:
-    """A pose file: poses ``(m, 6)`` (mm, rad, in ``euler``) and their ids."""
-    table = read_table(path)
+def read_poses(
+    path: str | os.PathLike[str], euler: str, max_rows: int | None = DEFAULT_MAX_ROWS
+) -> tuple[NDArray[np.float64], tuple[str, ...]]:
+    """A pose file: poses ``(m, 6)`` (mm, rad, in ``euler``) and their ids (``max_rows``: see
+    :func:`~hexcal.io.tables.read_table`)."""
+    table = read_table(path, max_rows)
     return table_poses(table, euler), table.ids()
 
 
-def read_measurements(path: str | os.PathLike[str], euler: str) -> Measurements:
-    """A measurement file: measured poses, leg readings ``dl1..dl6`` and ids."""
-    table = read_table(path)
+def read_measurements(
+    path: str | os.PathLike[str], euler: str, max_rows: int | None = MEASUREMENT_MAX_ROWS
+) -> Measurements:
+    """A measurement file: measured poses, leg readings ``dl1..dl6`` and ids.
+
+    More than ``max_rows`` rows (default :data:`~hexcal.io.inputs.MEASUREMENT_MAX_ROWS`,
+    100,000) are refused while reading, before conversion, with a message naming the limit
+    and ``--max-rows``.
+    """
+    table = read_table(path, max_rows)
+    group = ORIENTATION_GROUPS[_orientation_group(table)]
+    table.numbers(("x", "y", "z", *group, *LEG_READING_COLUMNS))  # converted in one pass, kept
     poses = table_poses(table, euler)
     readings = table.numbers(LEG_READING_COLUMNS)
     return Measurements(poses, readings, table.ids())
@@ -102,16 +116,62 @@ class LegData:
     ids: tuple[str, ...]
 
 
-def read_legs(path: str | os.PathLike[str]) -> LegData:
+def read_legs(path: str | os.PathLike[str], max_rows: int | None = DEFAULT_MAX_ROWS) -> LegData:
     """A leg file with ``l1..l6`` and/or ``dl1..dl6`` (at least one group complete)."""
-    table = read_table(path)
+    return table_legs(read_table(path, max_rows))
+
+
+def table_legs(table: Table, ids: tuple[str, ...] | None = None) -> LegData:
+    """Leg lengths and/or readings of a table (``ids``: already read, for blocks)."""
     has_l = any(table.has(c) for c in LEG_LENGTH_COLUMNS)
     has_dl = any(table.has(c) for c in LEG_READING_COLUMNS)
     if not (has_l or has_dl):
         raise InputError(f"{table.path}: missing leg columns: give l1..l6 or dl1..dl6")
+    table.numbers((LEG_LENGTH_COLUMNS if has_l else ()) + (LEG_READING_COLUMNS if has_dl else ()))
     lengths = table.numbers(LEG_LENGTH_COLUMNS) if has_l else None
     readings = table.numbers(LEG_READING_COLUMNS) if has_dl else None
-    return LegData(lengths, readings, table.ids())
+    return LegData(lengths, readings, table.ids() if ids is None else ids)
+
+
+class _BlockIds:
+    """Ids across the blocks of one file (repeats found across blocks)."""
+
+    def __init__(self) -> None:
+        self.seen: dict[str, int] = {}
+        self.count = 0
+
+    def __call__(self, table: Table) -> tuple[str, ...]:
+        ids = table.ids(self.seen if table.has("id") else None, first=self.count + 1)
+        self.count += len(ids)
+        return ids
+
+
+def iter_poses(
+    path: str | os.PathLike[str], euler: str, block_rows: int = BLOCK_ROWS
+) -> Iterator[tuple[NDArray[np.float64], tuple[str, ...]]]:
+    """A pose file in blocks: ``(poses (k, 6), ids)`` per block of ``block_rows`` rows.
+
+    Memory is bounded by one block (and the ids seen, to refuse repeats), whatever the
+    length of the file; the radians-look-like-degrees warning is given once.
+    """
+    ids = _BlockIds()
+    warned = False
+    for table in iter_tables(path, block_rows):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", InputWarning)
+            poses = table_poses(table, euler)
+        for item in caught:
+            if not warned:
+                warnings.warn(item.message, item.category, stacklevel=2)
+                warned = True
+        yield poses, ids(table)
+
+
+def iter_legs(path: str | os.PathLike[str], block_rows: int = BLOCK_ROWS) -> Iterator[LegData]:
+    """A leg file in blocks of ``block_rows`` rows (memory bounded by one block)."""
+    ids = _BlockIds()
+    for table in iter_tables(path, block_rows):
+        yield table_legs(table, ids(table))
 
 
 def write_poses(
@@ -119,9 +179,10 @@ def write_poses(
     poses: NDArray[np.float64],
     ids: Sequence[str] | None = None,
     comment: str | None = None,
+    outputs: OutputSet | None = None,
 ) -> None:
     """Write a pose file with angles in radians (columns ``x, y, z, a, b, c``)."""
-    write_table(path, ("x", "y", "z", "a", "b", "c"), poses, ids, comment)
+    write_table(path, ("x", "y", "z", "a", "b", "c"), poses, ids, comment, outputs)
 
 
 def write_legs(
@@ -130,6 +191,7 @@ def write_legs(
     readings: NDArray[np.float64],
     ids: Sequence[str] | None = None,
     comment: str | None = None,
+    outputs: OutputSet | None = None,
 ) -> None:
     """Write a leg file with ``l1..l6`` and ``dl1..dl6``."""
     write_table(
@@ -138,6 +200,7 @@ def write_legs(
         np.concatenate([lengths, readings], axis=1),
         ids,
         comment,
+        outputs,
     )
 
 
@@ -147,6 +210,7 @@ def write_measurements(
     euler: str,
     orientation: str = "rad",
     comment: str | None = None,
+    outputs: OutputSet | None = None,
 ) -> None:
     """Write a measurement file with orientations as ``rad``, ``deg`` or ``quat``."""
     poses = measurements.poses
@@ -162,4 +226,4 @@ def write_measurements(
         raise ValueError(f"orientation must be rad, deg or quat, got {orientation!r}")
     columns = LEG_READING_COLUMNS + ("x", "y", "z") + ORIENTATION_GROUPS[orientation]
     data = np.concatenate([measurements.readings, poses[:, :3], angles], axis=1)
-    write_table(path, columns, data, measurements.ids, comment)
+    write_table(path, columns, data, measurements.ids, comment, outputs)

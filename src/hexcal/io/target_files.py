@@ -136,7 +136,7 @@ def read_export(
             row = [c.replace(",", ".") for c in row]
         rows.append(tuple(row))
         lines.append(line)
-    return Table(name, header, tuple(rows), tuple(lines))
+    return Table.from_rows(name, header, rows, lines)
 
 
 def _looks_numeric(cell: str) -> bool:
