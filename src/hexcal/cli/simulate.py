@@ -13,6 +13,7 @@ import sys
 import time
 from typing import Any
 
+from hexcal.cli import instrument
 from hexcal.cli.common import (
     GEOMETRY_HELP,
     CommandError,
@@ -50,6 +51,8 @@ def _noise_levels(text: str) -> list[float]:
 
 def cmd_simulate(args: argparse.Namespace) -> None:
     """Monte Carlo study of calibration campaigns: strategies x pose counts x noise x methods."""
+    if args.setup:
+        return instrument.simulate_with_setup(args)
     from hexcal.core import NoiseModel
     from hexcal.design.planning import optimal_poses
     from hexcal.estimation import ESTIMATORS
@@ -199,6 +202,8 @@ def register(sub: Any) -> None:
     p.add_argument("--jobs", type=int, default=None, help="processes (default: all cores)")
     p.add_argument("--out", help="folder for study.json, study.csv and study.png")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--setup", metavar="FILE", help="true tracker setup YAML: campaigns with targets (ml)")
+    p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("paper", help="reproduce the seed paper's Table I by Monte Carlo")
