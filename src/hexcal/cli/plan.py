@@ -20,7 +20,6 @@ import math
 import time
 from typing import TYPE_CHECKING, Any
 
-from hexcal.cli import instrument
 from hexcal.cli.common import (
     EULER_HELP,
     GEOMETRY_HELP,
@@ -147,8 +146,10 @@ def cmd_errormap(args: argparse.Namespace) -> None:
 
 def cmd_observability(args: argparse.Namespace) -> None:
     """Observability indices and predicted accuracy of a pose file."""
-    if args.setup:
-        return instrument.observability_with_setup(args)
+    if args.setup:  # an instrument setup: cli/instrument_plan.py
+        from hexcal.cli.instrument_plan import observability_with_setup
+
+        return observability_with_setup(args)
     import numpy as np
 
     from hexcal.core import workspace_corners
@@ -253,8 +254,10 @@ def _select(args: argparse.Namespace, geometry: Any, criterion: str, noise: Any,
 
 def cmd_select(args: argparse.Namespace) -> None:
     """Optimal measurement poses, compared with the seed paper's strategy and random poses."""
-    if args.setup:
-        return instrument.select_with_setup(args)
+    if args.setup:  # an instrument setup: cli/instrument_plan.py
+        from hexcal.cli.instrument_plan import select_with_setup
+
+        return select_with_setup(args)
     import numpy as np
 
     from hexcal.core import MIN_POSES

@@ -13,7 +13,6 @@ import sys
 import time
 from typing import Any
 
-from hexcal.cli import instrument
 from hexcal.cli.common import (
     GEOMETRY_HELP,
     CommandError,
@@ -51,8 +50,10 @@ def _noise_levels(text: str) -> list[float]:
 
 def cmd_simulate(args: argparse.Namespace) -> None:
     """Monte Carlo study of calibration campaigns: strategies x pose counts x noise x methods."""
-    if args.setup:
-        return instrument.simulate_with_setup(args)
+    if args.setup:  # an instrument setup: cli/instrument_plan.py
+        from hexcal.cli.instrument_plan import simulate_with_setup
+
+        return simulate_with_setup(args)
     from hexcal.core import NoiseModel
     from hexcal.design.planning import optimal_poses
     from hexcal.estimation import ESTIMATORS

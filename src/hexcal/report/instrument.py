@@ -26,7 +26,9 @@ def _f(value: Any, digits: int = 4) -> str:
     return f"{value:.{digits}f}"
 
 
-def instrument_dict(out: Any, outliers: tuple[str, ...] = (), flagged: tuple[str, ...] = ()) -> dict[str, Any]:
+def instrument_dict(
+    out: Any, outliers: tuple[str, ...] = (), flagged: tuple[str, ...] = ()
+) -> dict[str, Any]:
     """The instrument part of an identification: ``out`` an
     :class:`hexcal.estimation.instrument.InstrumentResult`."""
     setup = out.setup
@@ -129,7 +131,8 @@ def instrument_plan_text(data: dict[str, Any], **_options: Any) -> str:
         "    beyond the gauges   "
         + ("all identified" if not data["unidentifiable"] else "; ".join(data["unidentifiable"])),
         "    predicted (Cramér–Rao) σ, gauge-fixed:",
-        f"      joint coordinates  median {_f(data['joint_bound_mm'])} mm, max {_f(data['joint_bound_max_mm'])} mm",
+        f"      joint coordinates  median {_f(data['joint_bound_mm'])} mm, "
+        f"max {_f(data['joint_bound_max_mm'])} mm",
         f"      l0                 median {_f(data['l0_bound_mm'])} mm",
     ]
     if data.get("full_pose_joint_bound_mm") is not None:
