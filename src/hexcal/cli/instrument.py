@@ -153,7 +153,8 @@ def validate_with_setup(args: argparse.Namespace) -> None:
         )
     data = read_instrument_data(args.data, setup, geometry, args)
     result = validate_instrument(geometry, setup, data)
-    print(render("instrument_validation", instrument_validation_dict({"calibrated": result}, setup.kind)))
+    label = geometry.name or str(args.geometry)
+    print(render("instrument_validation", instrument_validation_dict({label: result}, setup.kind)))
     if args.out:
         errors = np.asarray(result.errors, dtype=float).reshape(len(data.readings), -1)
         columns = [f"{t}.error" for t in setup.target_names] if setup.kind == "targets" else ["error"]
