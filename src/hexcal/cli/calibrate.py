@@ -29,6 +29,10 @@ from hexcal.cli.common import (
 
 def cmd_identify(args: argparse.Namespace) -> None:
     """Identify the parameters from a measurement file; write the calibrated geometry."""
+    if args.setup:  # an instrument setup: cli/instrument.py
+        from hexcal.cli.instrument import identify_with_setup
+
+        return identify_with_setup(args)
     from hexcal.estimation import estimate
     from hexcal.io import atomic_write, read_measurements, save_geometry
     from hexcal.report import identification_dict, identification_report_dict, render
@@ -66,6 +70,10 @@ def cmd_identify(args: argparse.Namespace) -> None:
 
 def cmd_validate(args: argparse.Namespace) -> None:
     """Pose errors of a geometry (and optionally the nominal one) on held-out measurements."""
+    if args.setup:  # an instrument setup: cli/instrument.py
+        from hexcal.cli.instrument import validate_with_setup
+
+        return validate_with_setup(args)
     from hexcal.estimation import validate
     from hexcal.io import read_measurements, write_table
     from hexcal.report import render, validation_dict, validation_table
@@ -124,6 +132,10 @@ def cmd_compensate(args: argparse.Namespace) -> None:
 
 def cmd_synthesize(args: argparse.Namespace) -> None:
     """A simulated measurement file of a known machine."""
+    if args.setup:  # an instrument setup: cli/instrument.py
+        from hexcal.cli.instrument import synthesize_with_setup
+
+        return synthesize_with_setup(args)
     from hexcal.io import read_poses, write_measurements
     from hexcal.simulation import simulate_measurements
 
@@ -168,6 +180,10 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--html", metavar="FILE", help="save a self-contained HTML report (verdict, tables, figures)"
     )
+    p.add_argument("--setup", metavar="FILE", help="instrument setup YAML (targets or tool; frame or auto)")
+    p.add_argument("--setup-out", metavar="FILE", help="with --setup: calibrated setup YAML to write")
+    p.add_argument("--delimiter", choices=(",", ";", "tab"), help="export field separator (default: sniffed)")
+    p.add_argument("--decimal", choices=(".", ","), help="export decimal mark (default: detected)")
     p.set_defaults(func=cmd_identify)
 
     p = sub.add_parser("validate", help="pose errors of a geometry on held-out measurements")
@@ -177,6 +193,9 @@ def register(sub: Any) -> None:
     p.add_argument("--out", help="per-pose table CSV file")
     p.add_argument("--html", metavar="FILE", help="save a self-contained HTML report with figures")
     p.add_argument("--euler", help=EULER_HELP)
+    p.add_argument("--setup", metavar="FILE", help="calibrated setup YAML: --data is an instrument export")
+    p.add_argument("--delimiter", choices=(",", ";", "tab"), help="export field separator (default: sniffed)")
+    p.add_argument("--decimal", choices=(".", ","), help="export decimal mark (default: detected)")
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("compensate", help="leg commands that bring the real machine to targets")
@@ -199,4 +218,6 @@ def register(sub: Any) -> None:
     p.add_argument("--orientation", choices=("rad", "deg", "quat"), default="rad")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--euler", help="Euler sequence of the angles (default: the nominal geometry's)")
+    p.add_argument("--setup", metavar="FILE", help="true instrument setup YAML: write an instrument export")
+    p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
     p.set_defaults(func=cmd_synthesize)

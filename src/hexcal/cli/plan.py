@@ -146,6 +146,10 @@ def cmd_errormap(args: argparse.Namespace) -> None:
 
 def cmd_observability(args: argparse.Namespace) -> None:
     """Observability indices and predicted accuracy of a pose file."""
+    if args.setup:  # an instrument setup: cli/instrument_plan.py
+        from hexcal.cli.instrument_plan import observability_with_setup
+
+        return observability_with_setup(args)
     import numpy as np
 
     from hexcal.core import workspace_corners
@@ -250,6 +254,10 @@ def _select(args: argparse.Namespace, geometry: Any, criterion: str, noise: Any,
 
 def cmd_select(args: argparse.Namespace) -> None:
     """Optimal measurement poses, compared with the seed paper's strategy and random poses."""
+    if args.setup:  # an instrument setup: cli/instrument_plan.py
+        from hexcal.cli.instrument_plan import select_with_setup
+
+        return select_with_setup(args)
     import numpy as np
 
     from hexcal.core import MIN_POSES
@@ -314,6 +322,7 @@ def register(sub: Any) -> None:
     p.add_argument("--weighted", action="store_true", help="indices of the noise-whitened Jacobian")
     p.add_argument("--method", default="length", help="estimator residual predicted: length or paper")
     p.add_argument("--euler", help=EULER_HELP)
+    p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: plan for targets or a tool")
     p.set_defaults(func=cmd_observability)
 
     p = sub.add_parser("candidates", help="feasible candidate measurement poses")
@@ -340,4 +349,5 @@ def register(sub: Any) -> None:
     p.add_argument("--min-distance", type=float, help="minimum singularity distance (default 0.05)")
     p.add_argument("--no-exchange", action="store_true", help="greedy selection only")
     p.add_argument("--euler", help=EULER_HELP)
+    p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: poses optimal for it")
     p.set_defaults(func=cmd_select)

@@ -50,6 +50,10 @@ def _noise_levels(text: str) -> list[float]:
 
 def cmd_simulate(args: argparse.Namespace) -> None:
     """Monte Carlo study of calibration campaigns: strategies x pose counts x noise x methods."""
+    if args.setup:  # an instrument setup: cli/instrument_plan.py
+        from hexcal.cli.instrument_plan import simulate_with_setup
+
+        return simulate_with_setup(args)
     from hexcal.core import NoiseModel
     from hexcal.design.planning import optimal_poses
     from hexcal.estimation import ESTIMATORS
@@ -199,6 +203,8 @@ def register(sub: Any) -> None:
     p.add_argument("--jobs", type=int, default=None, help="processes (default: all cores)")
     p.add_argument("--out", help="folder for study.json, study.csv and study.png")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--setup", metavar="FILE", help="true tracker setup YAML: campaigns with targets (ml)")
+    p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("paper", help="reproduce the seed paper's Table I by Monte Carlo")
