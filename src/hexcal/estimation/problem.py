@@ -29,6 +29,9 @@ from hexcal.core.linalg import null_space, numerical_rank, scaled_svd
 from hexcal.core.parameters import (
     MIN_POSES,
     N_ALL_PARAMETERS,
+    PARAMETER_GROUPS,
+    PARAMETER_NAMES,
+    PARAMETER_SCALE,
     ParameterSet,
     select_parameters,
 )
@@ -72,16 +75,7 @@ class Problem:
         self.start, self.data = start, data
         self.model = FullPoseModel() if model is None else model
         if parameters is None:
-            machine = ParameterSet.machine(start.to_vector(gains=True))
-            parameters = machine + self.model.parameters()
-            flags = np.asarray(select_parameters() if mask is None else mask, dtype=bool)
-            if flags.shape == (N_ALL_PARAMETERS,):
-                flags = np.concatenate([flags, np.ones(len(parameters) - N_ALL_PARAMETERS, dtype=bool)])
-            if flags.shape != (len(parameters),):
-                raise UsageError(f"mask must have shape (48,) or ({len(parameters)},), got {flags.shape}")
-            parameters = ParameterSet(
-                parameters.names, parameters.values, flags, parameters.scales, parameters.groups
-            )
+            parameters = _parameter_set(start, self.model, mask)
         self.parameters = parameters
         self.mask = np.array(parameters.vary)
         self.machine_mask = self.mask[:N_ALL_PARAMETERS]
@@ -288,6 +282,28 @@ class Problem:
     def observation_counts(self) -> NDArray[np.intp]:
         """Equations per observation after the six pose unknowns: ``6 + present values - 6``."""
         return self.present.sum(axis=1)
+
+
+def _parameter_set(start: Geometry, model: MeasurementModel, mask: ArrayLike | None) -> ParameterSet:
+    """The machine's 48 parameters and the model's, varied by ``mask`` (built once: a fit of
+    15 poses takes milliseconds, and this runs for every one of a study's fits)."""
+    extra = model.parameters()
+    flags = np.asarray(select_parameters() if mask is None else mask, dtype=bool)
+    n = N_ALL_PARAMETERS + len(extra)
+    if flags.shape == (N_ALL_PARAMETERS,):
+        flags = np.concatenate([flags, np.ones(len(extra), dtype=bool)])
+    if flags.shape != (n,):
+        raise UsageError(f"mask must have shape (48,) or ({n},), got {flags.shape}")
+    groups = dict(PARAMETER_GROUPS)
+    for key, names in extra.groups.items():
+        groups[key] = groups.get(key, ()) + names
+    return ParameterSet(
+        PARAMETER_NAMES + extra.names,
+        np.concatenate([start.to_vector(gains=True), extra.values]),
+        flags,
+        np.concatenate([PARAMETER_SCALE, extra.scales]),
+        groups,
+    )
 
 
 def measurements_problem(
