@@ -12,7 +12,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 
 def identification_dict(
@@ -99,17 +98,6 @@ def validation_dict(calibrated: Any, nominal: Any | None = None) -> dict[str, An
         "calibrated": calibrated.summary(),
         "nominal": nominal.summary() if nominal is not None else None,
     }
-
-
-def _pose_error_stats(errors: dict[str, NDArray[np.float64]]) -> dict[str, float]:
-    """Per-trial max averaged over trials, and RMS over all poses of all trials."""
-    out: dict[str, float] = {}
-    for key in ("position", "orientation"):
-        e = errors[key]
-        out[f"{key}_max"] = float(np.nanmean(np.nanmax(e, axis=1)))
-        out[f"{key}_rms"] = float(np.sqrt(np.nanmean(e**2)))
-        out[f"{key}_max_worst"] = float(np.nanmax(e))
-    return out
 
 
 def paper_figure_data(experiment: Any) -> dict[str, Any]:
