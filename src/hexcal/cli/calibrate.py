@@ -26,26 +26,56 @@ from hexcal.cli.common import (
     warn,
 )
 
+#: Default ``--sigma-limit``: a parameter combination whose predicted σ exceeds this
+#: fraction of the platform radius is poorly determined (``warn``), beyond three times it
+#: not determined by the data (``fail``); gains: 1e-3 per mm of the length limit.
+SIGMA_LIMIT = 0.1
+
+
+def identify_noise(args: argparse.Namespace) -> Any:
+    """``"auto"`` (the noise learned from the data) unless ``--noise``/``--pose-covariance``
+    give a noise model."""
+    if (args.noise is None and not args.pose_covariance) or (args.noise or "").strip() == "auto":
+        if args.pose_covariance:
+            raise CommandError("--pose-covariance gives the noise: do not combine it with --noise auto")
+        return "auto"
+    return noise_from_args(args)
+
 
 def cmd_identify(args: argparse.Namespace) -> None:
     """Identify the parameters from a measurement file; write the calibrated geometry."""
+    import numpy as np
+
     from hexcal.estimation import estimate
     from hexcal.io import atomic_write, read_measurements, save_geometry
     from hexcal.report import identification_dict, identification_report_dict, render
 
     check_outputs(args.out, args.report, args.json, args.html)
+    if not args.sigma_limit > 0:
+        raise CommandError(f"--sigma-limit must be > 0, got {args.sigma_limit}")
     nominal = load_geometry(args.geometry, args.euler)
     data = read_measurements(args.data, nominal.euler)
-    noise = noise_from_args(args)
+    noise = identify_noise(args)
     mask = fit_mask(args.fit, args.fix or (), option=None)
+    # limits relative to the machine: the library's are 1 mm (1e-3 for gains) per unit of scale
+    radius = float(np.max(np.linalg.norm(nominal.platform_joints[:, :2], axis=1)))
+    scale = args.sigma_limit * radius
     # the pose check runs on the generalised least-squares fit (its whitened deletion statistic
     # follows a known F distribution); --robust wraps the chosen estimator itself
-    result = estimate(nominal, data, args.method, mask, noise, robust=args.robust)
+    result = estimate(nominal, data, args.method, mask, noise, robust=args.robust, sigma_limit=scale)
     outliers, flagged = result.outliers, result.flagged
     text = render("identification", identification_report_dict(result, outliers, flagged))
+    if result.failed and not args.force:
+        print(text)
+        serious = [r.message for r in result.verdict.reasons if r.severity == "fail"]
+        raise CommandError(
+            f"verdict fail: {'; '.join(serious)}; nothing written (--force writes the geometry anyway)"
+        )
     calibration = result.calibration_metadata()
     calibration["data"] = str(args.data)
     calibration["outliers"] = list(outliers)
+    if result.verdict is not None:
+        calibration["verdict"] = result.verdict_status
     name = f"{nominal.name}-calibrated" if nominal.name else "calibrated"
     save_geometry(result.geometry.replace(name=name, calibration=calibration), args.out)
     if args.report:
@@ -61,6 +91,8 @@ def cmd_identify(args: argparse.Namespace) -> None:
         with atomic_write(args.html) as fh:
             fh.write(render_html(identification_report(result, data, inputs)))
     print(text)
+    if result.failed:
+        warn(f"hexcal: warning: verdict fail, written anyway (--force) to {args.out}")
     print(f"wrote the calibrated geometry to {args.out}")
 
 
@@ -159,12 +191,42 @@ def register(sub: Any) -> None:
         "on leg lengths, or the seed paper's squared lengths (eq. 3)",
     )
     noise_options(p)
-    p.add_argument("--fit", default="joints,l0", help="parameter groups: joints, base, platform, l0, gains")
-    p.add_argument("--fix", nargs="+", metavar="NAME", help="parameters to hold, e.g. u1.z l0_1")
-    p.add_argument("--robust", action="store_true", help="find and leave out outlying poses")
+    for action in p._actions:  # identify's own default: the noise learned from the data
+        if action.dest == "noise":
+            action.help = (
+                "measurement noise: auto (learned from the data: the default when neither --noise nor "
+                "--pose-covariance is given) or leg=MM,pos=MM,ang=RAD"
+            )
+        elif action.dest == "noise_dist":
+            action.help += " (default %(default)s)"
+    p.add_argument(
+        "--fit",
+        default="joints,l0",
+        help="parameter groups: joints, base, platform, l0, gains (default %(default)s)",
+    )
+    p.add_argument(
+        "--fix", nargs="+", metavar="NAME", help="parameters to hold, e.g. u1.z l0_1 (default: none)"
+    )
+    p.add_argument(
+        "--robust", action="store_true", help="find and leave out outlying poses (default: keep every pose)"
+    )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="write the calibrated geometry even when the verdict is fail (default: a fail writes nothing)",
+    )
+    p.add_argument(
+        "--sigma-limit",
+        type=float,
+        default=SIGMA_LIMIT,
+        metavar="FRACTION",
+        help="identifiability limit: a parameter combination whose predicted σ exceeds this fraction of "
+        "the platform radius is poorly determined (warn), beyond 3 times it undetermined (fail); gains: "
+        "1e-3 per mm of that limit (default %(default)s)",
+    )
     p.add_argument("--euler", help=EULER_HELP)
-    p.add_argument("--report", help="save the report as text")
-    p.add_argument("--json", help="save the result as JSON")
+    p.add_argument("--report", help="save the report as text (default: not saved)")
+    p.add_argument("--json", help="save the result as JSON (default: not saved; keys in the README)")
     p.add_argument(
         "--html", metavar="FILE", help="save a self-contained HTML report (verdict, tables, figures)"
     )
