@@ -23,6 +23,7 @@ from hexcal.cli.common import (
     noise_from_args,
     noise_options,
     parse_noise,
+    show_defaults,
     warn,
 )
 
@@ -143,8 +144,11 @@ def cmd_compensate(args: argparse.Namespace) -> None:
             f"{len(bad)} target(s) outside the leg length limits: {id_list(list(bad))} "
             "(nothing written; --skip-infeasible writes the others)"
         )
+    _warn_outside_box(geometry, targets, ids, "target(s)")
     keep = comp.feasible
     kept_ids = [i for i, k in zip(ids, keep, strict=True) if k]
+    if args.corrected_poses and comp.corrected_poses is not None:
+        _warn_outside_box(geometry, comp.corrected_poses[keep], kept_ids, "corrected pose(s)")
     write_legs(args.out, comp.lengths[keep], comp.readings[keep], kept_ids)
     if args.corrected_poses and comp.corrected_poses is not None:
         write_poses(args.corrected_poses, comp.corrected_poses[keep], kept_ids)
@@ -152,6 +156,20 @@ def cmd_compensate(args: argparse.Namespace) -> None:
     if bad:
         warn(f"hexcal: warning: skipped {len(bad)} infeasible target(s): {id_list(list(bad))}")
     print(f"wrote leg commands for {len(kept_ids)} target(s) to {args.out}")
+
+
+def _warn_outside_box(geometry: Any, poses: Any, ids: list[str], what: str) -> None:
+    """One warning line naming the poses outside the geometry's workspace box."""
+    import numpy as np
+
+    if geometry.workspace is None or len(poses) == 0:
+        return
+    box = np.asarray(geometry.workspace)
+    tol = 1e-9 * np.maximum(1.0, np.abs(box))
+    outside = np.any((poses < box[:, 0] - tol[:, 0]) | (poses > box[:, 1] + tol[:, 1]), axis=1)
+    if outside.any():
+        bad = [ids[k] for k in np.flatnonzero(outside)]
+        warn(f"hexcal: warning: {len(bad)} {what} outside the workspace box: {id_list(bad)}")
 
 
 def cmd_synthesize(args: argparse.Namespace) -> None:
@@ -262,3 +280,5 @@ def register(sub: Any) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--euler", help="Euler sequence of the angles (default: the nominal geometry's)")
     p.set_defaults(func=cmd_synthesize)
+    for name in ("identify", "validate", "compensate", "synthesize"):
+        show_defaults(sub.choices[name])
