@@ -7,10 +7,12 @@ Every test runs ``hexcal`` in-process on small simulated files (fixed seeds).
 
 from __future__ import annotations
 
+import argparse
 import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from hexcal.cli import main
 from hexcal.core import NoiseModel, preset
@@ -137,3 +139,126 @@ def test_one_typing_error_fails_naming_the_pose(capsys, tmp_path):
     status, _out, err, _, js = identify(capsys, tmp_path, path, "--robust")
     assert status == 0, err
     assert json.loads(js.read_text())["outliers"] == ["p017"]
+
+
+# -- defaults that match ----------------------------------------------------------------------------
+
+
+def test_simulate_without_true_announces_random_machines_and_records_both(capsys, tmp_path):
+    nominal = tmp_path / "my.yaml"
+    assert run(capsys, "preset", "paper-hmt", "--out", nominal)[0] == 0
+    out = tmp_path / "study"
+    status, _, err = run(
+        capsys,
+        "simulate",
+        "--geometry",
+        nominal,
+        "--methods",
+        "length",
+        "--strategies",
+        "corners",
+        "--poses",
+        "15",
+        "--trials",
+        "2",
+        "--jobs",
+        "1",
+        "--quiet",
+        "--out",
+        out,
+    )
+    assert status == 0, err
+    assert "random errors around the nominal" in err
+    study = json.loads((out / "study.json").read_text())
+    assert study["nominal_geometry"]["base_joints"][0] == [305.4001, 111.1565, 0.0]
+    assert study["true_geometry"].startswith("random")
+    assert study["noise_sigmas"]["leg"] == pytest.approx(0.01 / 3**0.5)
+    status, _, err = run(
+        capsys,
+        "simulate",
+        "--true",
+        "paper-hmt-true",
+        "--methods",
+        "length",
+        "--strategies",
+        "corners",
+        "--poses",
+        "15",
+        "--trials",
+        "2",
+        "--jobs",
+        "1",
+        "--quiet",
+        "--out",
+        out,
+    )
+    assert status == 0 and "random" not in err
+    assert json.loads((out / "study.json").read_text())["true_geometry"]["name"] == "paper-hmt-true"
+
+
+def test_fk_with_lengths_and_readings_uses_the_readings(capsys, tmp_path):
+    from hexcal.core import inverse_kinematics, leg_readings
+    from hexcal.io import read_poses, write_legs
+
+    poses = random_poses(NOMINAL, 3, 5)
+    lengths = inverse_kinematics(NOMINAL, poses)
+    readings = leg_readings(NOMINAL, lengths)
+    legs = tmp_path / "legs.csv"
+    write_legs(legs, lengths + 1.0, readings, ["a", "b", "c"])  # l disagrees with dl by 1 mm
+    status, _, err = run(capsys, "fk", "--geometry", "paper-hmt", "--legs", legs, "--out", tmp_path / "p.csv")
+    assert status == 0, err
+    assert "using dl (the controller's readings)" in err
+    back, _ = read_poses(tmp_path / "p.csv", NOMINAL.euler)
+    np.testing.assert_allclose(back, poses, atol=1e-6)
+
+
+def test_compensate_warns_about_targets_outside_the_box(capsys, tmp_path):
+    from hexcal.io import write_poses
+
+    poses = random_poses(NOMINAL, 4, 6)
+    poses[2, 0] = 300.0  # x beyond the box's 250 mm, still within the leg limits
+    targets = tmp_path / "t.csv"
+    write_poses(targets, poses, ["t0", "t1", "t2", "t3"])
+    status, _, err = run(
+        capsys,
+        "compensate",
+        "--geometry",
+        "paper-hmt-true",
+        "--nominal",
+        "paper-hmt",
+        "--poses",
+        targets,
+        "--out",
+        tmp_path / "legs.csv",
+        "--corrected-poses",
+        tmp_path / "c.csv",
+    )
+    assert status == 0, err
+    lines = [line for line in err.splitlines() if "outside the workspace box" in line]
+    assert lines and lines[0].endswith("t2") and "1 target(s)" in lines[0]
+
+
+def test_planning_headlines_ml_and_select_defaults_to_a(capsys, tmp_path):
+    plan, js = tmp_path / "plan.csv", tmp_path / "plan.json"
+    status, out, err = run(
+        capsys, "select", "--geometry", "paper-hmt", "--n", "10", "--out", plan, "--json", js
+    )
+    assert status == 0, err
+    data = json.loads(js.read_text())
+    assert data["criterion"] == "A" and "identify (method ml)" in out
+    selected = data["predicted_mean_abs_error_mm"]["selected"]
+    assert selected["estimator"] == selected["bound"] < selected["length"]
+    status, out, err = run(capsys, "observability", "--geometry", "paper-hmt", "--poses", plan)
+    assert status == 0, err
+    assert "(identify, method ml)" in out
+
+
+def test_every_option_shows_its_default(capsys):
+    from hexcal.cli.main import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name in ("identify", "fk", "select", "observability", "simulate", "paper", "compensate"):
+        for action in sub.choices[name]._actions:
+            if action.option_strings and action.dest != "help" and not action.required:
+                assert "default" in (action.help or ""), (name, action.dest)

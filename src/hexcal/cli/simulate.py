@@ -49,16 +49,17 @@ def _noise_levels(text: str) -> list[float]:
     return levels
 
 
-def _true_machine(args: argparse.Namespace, nominal: Any, default: str) -> Any:
-    """The ``--true`` machine (None: random errors around the nominal, one per trial); says on
-    stderr which machine is simulated when ``--true`` is not given."""
+def _true_machine(args: argparse.Namespace, default: str) -> tuple[Any, str | None]:
+    """The ``--true`` machine (None: random errors around the nominal, one per trial) and,
+    when ``--true`` is not given and the machine is random, the line that says so."""
     spec = args.true or default
-    if args.true is None:
-        what = (
-            "random errors around the nominal (U(±5 mm), one machine per trial)" if spec == "random" else spec
+    note = None
+    if args.true is None and spec == "random":
+        note = (
+            "hexcal: no --true: the simulated real machines are random errors around the nominal "
+            "geometry (U(±5 mm), one machine per trial)"
         )
-        print(f"hexcal: true machine (no --true): {what}", file=sys.stderr)
-    return None if spec == "random" else load_geometry(spec)
+    return (None if spec == "random" else load_geometry(spec)), note
 
 
 def _machines(nominal: Any, true: Any) -> dict[str, Any]:
@@ -77,7 +78,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     from hexcal.simulation import STRATEGIES, fixed_strategy, run_study
 
     nominal = load_geometry(args.geometry)
-    true = _true_machine(args, nominal, default="random")
+    true, note = _true_machine(args, default="random")
     check_trials(args.trials)
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     bad = [m for m in methods if m not in ESTIMATORS]
@@ -105,6 +106,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         for v in levels
     }
     out = output_folder(args.out)
+    if note:
+        print(note, file=sys.stderr)
     cells = run_study(
         nominal,
         true,
@@ -156,12 +159,12 @@ def cmd_paper(args: argparse.Namespace) -> None:
 
     nominal = load_geometry(args.geometry)
     # the seed paper's machine by default; random errors around any other --geometry
-    true = _true_machine(
-        args, nominal, default="paper-hmt-true" if args.geometry == "paper-hmt" else "random"
-    )
+    true, note = _true_machine(args, default="paper-hmt-true" if args.geometry == "paper-hmt" else "random")
     check_trials(args.trials)
     noise = parse_noise(args.noise, args.noise_dist)
     out = output_folder(args.out)
+    if note:
+        print(note, file=sys.stderr)
     print(
         f"Simulating the seed paper's experiment: {args.trials} trials, "
         f"nominal {nominal.name or args.geometry}, "
