@@ -58,6 +58,10 @@ def cmd_identify(args: argparse.Namespace) -> None:
     data = read_measurements(args.data, nominal.euler)
     noise = identify_noise(args)
     mask = fit_mask(args.fit, args.fix or (), option=None)
+    if args.robust:  # refuse too few poses by the file's count, before any pose is set aside
+        from hexcal.estimation import Problem
+
+        Problem(nominal, data, mask=mask).check_size()
     # limits relative to the machine: the library's are 1 mm (1e-3 for gains) per unit of scale
     radius = float(np.max(np.linalg.norm(nominal.platform_joints[:, :2], axis=1)))
     scale = args.sigma_limit * radius
