@@ -30,7 +30,11 @@ from hexcal.cli.common import (
 #: Default ``--sigma-limit``: a parameter combination whose predicted σ exceeds this
 #: fraction of the platform radius is poorly determined (``warn``), beyond three times it
 #: not determined by the data (``fail``); gains: 1e-3 per mm of the length limit.
-SIGMA_LIMIT = 0.1
+SIGMA_LIMIT = 0.2
+
+#: Default ``--max-change``: a change beyond this fraction of the machine's size (base radius
+#: for ``u``, platform radius for ``s``, the larger for ``l0``; of 1 for gains) is implausible.
+MAX_CHANGE = 0.25
 
 
 def identify_noise(args: argparse.Namespace) -> Any:
@@ -54,6 +58,8 @@ def cmd_identify(args: argparse.Namespace) -> None:
     check_outputs(args.out, args.report, args.json, args.html)
     if not args.sigma_limit > 0:
         raise CommandError(f"--sigma-limit must be > 0, got {args.sigma_limit}")
+    if not args.max_change > 0:
+        raise CommandError(f"--max-change must be > 0, got {args.max_change}")
     nominal = load_geometry(args.geometry, args.euler)
     data = read_measurements(args.data, nominal.euler)
     noise = identify_noise(args)
@@ -67,12 +73,23 @@ def cmd_identify(args: argparse.Namespace) -> None:
     scale = args.sigma_limit * radius
     # the pose check runs on the generalised least-squares fit (its whitened deletion statistic
     # follows a known F distribution); --robust wraps the chosen estimator itself
-    result = estimate(nominal, data, args.method, mask, noise, robust=args.robust, sigma_limit=scale)
+    result = estimate(
+        nominal,
+        data,
+        args.method,
+        mask,
+        noise,
+        robust=args.robust,
+        sigma_limit=scale,
+        max_change=args.max_change,
+    )
     outliers, flagged = result.outliers, result.flagged
     text = render("identification", identification_report_dict(result, outliers, flagged))
     if result.failed and not args.force:
         print(text)
-        serious = [r.message for r in result.verdict.reasons if r.severity == "fail"]
+        reasons = result.verdict.reasons
+        serious = [r.message for r in reasons if r.severity == "fail"]
+        serious += [r.message for r in reasons if r.severity == "warn"]
         raise CommandError(
             f"verdict fail: {'; '.join(serious)}; nothing written (--force writes the geometry anyway)"
         )
@@ -245,6 +262,14 @@ def register(sub: Any) -> None:
         help="identifiability limit: a parameter combination whose predicted σ exceeds this fraction of "
         "the platform radius is poorly determined (warn), beyond 3 times it undetermined (fail); gains: "
         "1e-3 per mm of that limit (default %(default)s)",
+    )
+    p.add_argument(
+        "--max-change",
+        type=float,
+        default=MAX_CHANGE,
+        metavar="FRACTION",
+        help="a parameter change beyond this fraction of the machine's size (base radius for u, platform "
+        "radius for s, the larger for l0, 1 for gains) is implausible: fail (default %(default)s)",
     )
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--report", help="save the report as text (default: not saved)")
