@@ -71,7 +71,7 @@ def test_select_writes_optimal_poses_and_compares_them(capsys, tmp_path, paper):
     at_bound = np.isclose(poses, box[:, 0]) | np.isclose(poses, box[:, 1])
     assert at_bound.any(axis=1).all()
     for text in (
-        "D-optimal",
+        "A-optimal",  # the default criterion, as simulate's selected strategy
         "candidate indices",
         "the seed paper",
         "random interior",
@@ -84,10 +84,11 @@ def test_select_writes_optimal_poses_and_compares_them(capsys, tmp_path, paper):
     assert predicted["selected"]["estimator"] < 0.8 * predicted["paper"]["estimator"]
     assert predicted["paper"]["estimator"] < predicted["interior"]["estimator"]
     assert data["value"] >= data["greedy_value"]
-    # the JSON prediction is the analysis of the written poses
-    assert predicted["selected"]["estimator"] == pytest.approx(
-        analyse_poses(paper, poses).mean_error_estimator
-    )
+    # the JSON prediction is the analysis of the written poses (ml: the Cramér–Rao bound;
+    # the unweighted least-squares prediction under "length")
+    analysis = analyse_poses(paper, poses)
+    assert predicted["selected"]["estimator"] == pytest.approx(analysis.mean_error_bound)
+    assert predicted["selected"]["length"] == pytest.approx(analysis.mean_error_estimator)
 
 
 def test_select_is_deterministic_under_the_seed(capsys, tmp_path):
@@ -182,7 +183,8 @@ def test_observability_reports_indices_and_predictions(capsys, tmp_path, paper, 
     for key in ("O1", "O2", "O3", "O4", "O5"):
         assert data[key] == pytest.approx(getattr(expected.indices, key))
     assert data["test_poses"]["n"] == 64
-    assert data["parameters"]["l0_3"]["std_estimator"] > data["parameters"]["l0_3"]["std_bound"] > 0
+    # identify's default estimator, ml: its covariance is the Cramér–Rao bound
+    assert data["parameters"]["l0_3"]["std_estimator"] == data["parameters"]["l0_3"]["std_bound"] > 0
 
 
 def test_observability_options(capsys, tmp_path, corner_poses):
@@ -311,7 +313,7 @@ def test_select_output_folder_must_exist(capsys, tmp_path):
     ("extra", "needle"),
     [
         (["--scaling", "unit"], "--scaling"),
-        (["--method", "ml"], "--method"),
+        (["--method", "gls"], "--method"),
         (["--noise-dist", "cauchy"], "--noise-dist"),
         (["--test-poses", "absent.csv"], "absent.csv"),
         (["--json", "nope/obs.json"], "does not exist"),

@@ -91,7 +91,8 @@ def test_identification_renders_from_its_json_ready_dict(fit):
     text = render("identification", data)
     assert text == format_identification_report(result, (), ("p3",))
     assert render("identification", _round_trip(data)) == text  # a plain dict is enough
-    assert text.startswith("[[Fit statistics]]\n    method              length: least squares")
+    assert text.startswith("Verdict: ")  # the verdict in one line, its reasons first
+    assert "[[Fit statistics]]\n    method              length: least squares" in text
     assert "[[Parameters]]" in text and "implausible residuals at pose(s) p3" in text
     summary = _strict_loads(render("identification", identification_dict(result), "json"))
     assert list(summary)[:4] == ["method", "poses", "parameters", "start"]

@@ -206,7 +206,12 @@ def test_euler_option_reads_another_sequence(capsys, tmp_path, files, orientatio
     assert_same_parameters(result["parameters"], xyz["parameters"], atol=1e-6)
     assert load_geometry(tmp_path / "zyx.yaml").euler == "zyx"
     if orientation == "rad":  # negative control: the same file without --euler is another machine
-        wrong = identify_json(capsys, tmp_path, path, tag="wrong")
+        status, _, err = run(
+            capsys, "identify", "--geometry", "paper-hmt", "--data", path, "--out", tmp_path / "w.yaml"
+        )
+        assert "Euler sequence looks wrong" in assert_one_error_line(status, err)  # refused, named
+        assert not (tmp_path / "w.yaml").exists()
+        wrong = identify_json(capsys, tmp_path, path, "--force", tag="wrong")
         assert max(abs(wrong["parameters"][k] - v) for k, v in xyz["parameters"].items()) > 0.1
 
 

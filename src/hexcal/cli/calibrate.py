@@ -23,8 +23,28 @@ from hexcal.cli.common import (
     noise_from_args,
     noise_options,
     parse_noise,
+    show_defaults,
     warn,
 )
+
+#: Default ``--sigma-limit``: a parameter combination whose predicted σ exceeds this
+#: fraction of the platform radius is poorly determined (``warn``), beyond three times it
+#: not determined by the data (``fail``); gains: 1e-3 per mm of the length limit.
+SIGMA_LIMIT = 0.2
+
+#: Default ``--max-change``: a change beyond this fraction of the machine's size (base radius
+#: for ``u``, platform radius for ``s``, the larger for ``l0``; of 1 for gains) is implausible.
+MAX_CHANGE = 0.25
+
+
+def identify_noise(args: argparse.Namespace) -> Any:
+    """``"auto"`` (the noise learned from the data) unless ``--noise``/``--pose-covariance``
+    give a noise model."""
+    if (args.noise is None and not args.pose_covariance) or (args.noise or "").strip() == "auto":
+        if args.pose_covariance:
+            raise CommandError("--pose-covariance gives the noise: do not combine it with --noise auto")
+        return "auto"
+    return noise_from_args(args)
 
 
 def cmd_identify(args: argparse.Namespace) -> None:
@@ -33,23 +53,55 @@ def cmd_identify(args: argparse.Namespace) -> None:
         from hexcal.cli.instrument import identify_with_setup
 
         return identify_with_setup(args)
+    import numpy as np
+
     from hexcal.estimation import estimate
     from hexcal.io import atomic_write, read_measurements, save_geometry
     from hexcal.report import identification_dict, identification_report_dict, render
 
     check_outputs(args.out, args.report, args.json, args.html)
+    if not args.sigma_limit > 0:
+        raise CommandError(f"--sigma-limit must be > 0, got {args.sigma_limit}")
+    if not args.max_change > 0:
+        raise CommandError(f"--max-change must be > 0, got {args.max_change}")
     nominal = load_geometry(args.geometry, args.euler)
     data = read_measurements(args.data, nominal.euler)
-    noise = noise_from_args(args)
+    noise = identify_noise(args)
     mask = fit_mask(args.fit, args.fix or (), option=None)
+    if args.robust:  # refuse too few poses by the file's count, before any pose is set aside
+        from hexcal.estimation import Problem
+
+        Problem(nominal, data, mask=mask).check_size()
+    # limits relative to the machine: the library's are 1 mm (1e-3 for gains) per unit of scale
+    radius = float(np.max(np.linalg.norm(nominal.platform_joints[:, :2], axis=1)))
+    scale = args.sigma_limit * radius
     # the pose check runs on the generalised least-squares fit (its whitened deletion statistic
     # follows a known F distribution); --robust wraps the chosen estimator itself
-    result = estimate(nominal, data, args.method, mask, noise, robust=args.robust)
+    result = estimate(
+        nominal,
+        data,
+        args.method,
+        mask,
+        noise,
+        robust=args.robust,
+        sigma_limit=scale,
+        max_change=args.max_change,
+    )
     outliers, flagged = result.outliers, result.flagged
     text = render("identification", identification_report_dict(result, outliers, flagged))
+    if result.failed and not args.force:
+        print(text)
+        reasons = result.verdict.reasons
+        serious = [r.message for r in reasons if r.severity == "fail"]
+        serious += [r.message for r in reasons if r.severity == "warn"]
+        raise CommandError(
+            f"verdict fail: {'; '.join(serious)}; nothing written (--force writes the geometry anyway)"
+        )
     calibration = result.calibration_metadata()
     calibration["data"] = str(args.data)
     calibration["outliers"] = list(outliers)
+    if result.verdict is not None:
+        calibration["verdict"] = result.verdict_status
     name = f"{nominal.name}-calibrated" if nominal.name else "calibrated"
     save_geometry(result.geometry.replace(name=name, calibration=calibration), args.out)
     if args.report:
@@ -65,6 +117,8 @@ def cmd_identify(args: argparse.Namespace) -> None:
         with atomic_write(args.html) as fh:
             fh.write(render_html(identification_report(result, data, inputs)))
     print(text)
+    if result.failed:
+        warn(f"hexcal: warning: verdict fail, written anyway (--force) to {args.out}")
     print(f"wrote the calibrated geometry to {args.out}")
 
 
@@ -119,8 +173,11 @@ def cmd_compensate(args: argparse.Namespace) -> None:
             f"{len(bad)} target(s) outside the leg length limits: {id_list(list(bad))} "
             "(nothing written; --skip-infeasible writes the others)"
         )
+    _warn_outside_box(geometry, targets, ids, "target(s)")
     keep = comp.feasible
     kept_ids = [i for i, k in zip(ids, keep, strict=True) if k]
+    if args.corrected_poses and comp.corrected_poses is not None:
+        _warn_outside_box(geometry, comp.corrected_poses[keep], kept_ids, "corrected pose(s)")
     write_legs(args.out, comp.lengths[keep], comp.readings[keep], kept_ids)
     if args.corrected_poses and comp.corrected_poses is not None:
         write_poses(args.corrected_poses, comp.corrected_poses[keep], kept_ids)
@@ -128,6 +185,20 @@ def cmd_compensate(args: argparse.Namespace) -> None:
     if bad:
         warn(f"hexcal: warning: skipped {len(bad)} infeasible target(s): {id_list(list(bad))}")
     print(f"wrote leg commands for {len(kept_ids)} target(s) to {args.out}")
+
+
+def _warn_outside_box(geometry: Any, poses: Any, ids: list[str], what: str) -> None:
+    """One warning line naming the poses outside the geometry's workspace box."""
+    import numpy as np
+
+    if geometry.workspace is None or len(poses) == 0:
+        return
+    box = np.asarray(geometry.workspace)
+    tol = 1e-9 * np.maximum(1.0, np.abs(box))
+    outside = np.any((poses < box[:, 0] - tol[:, 0]) | (poses > box[:, 1] + tol[:, 1]), axis=1)
+    if outside.any():
+        bad = [ids[k] for k in np.flatnonzero(outside)]
+        warn(f"hexcal: warning: {len(bad)} {what} outside the workspace box: {id_list(bad)}")
 
 
 def cmd_synthesize(args: argparse.Namespace) -> None:
@@ -171,12 +242,50 @@ def register(sub: Any) -> None:
         "on leg lengths, or the seed paper's squared lengths (eq. 3)",
     )
     noise_options(p)
-    p.add_argument("--fit", default="joints,l0", help="parameter groups: joints, base, platform, l0, gains")
-    p.add_argument("--fix", nargs="+", metavar="NAME", help="parameters to hold, e.g. u1.z l0_1")
-    p.add_argument("--robust", action="store_true", help="find and leave out outlying poses")
+    for action in p._actions:  # identify's own default: the noise learned from the data
+        if action.dest == "noise":
+            action.help = (
+                "measurement noise: auto (learned from the data: the default when neither --noise nor "
+                "--pose-covariance is given) or leg=MM,pos=MM,ang=RAD"
+            )
+        elif action.dest == "noise_dist":
+            action.help += " (default %(default)s)"
+    p.add_argument(
+        "--fit",
+        default="joints,l0",
+        help="parameter groups: joints, base, platform, l0, gains (default %(default)s)",
+    )
+    p.add_argument(
+        "--fix", nargs="+", metavar="NAME", help="parameters to hold, e.g. u1.z l0_1 (default: none)"
+    )
+    p.add_argument(
+        "--robust", action="store_true", help="find and leave out outlying poses (default: keep every pose)"
+    )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="write the calibrated geometry even when the verdict is fail (default: a fail writes nothing)",
+    )
+    p.add_argument(
+        "--sigma-limit",
+        type=float,
+        default=SIGMA_LIMIT,
+        metavar="FRACTION",
+        help="identifiability limit: a parameter combination whose predicted σ exceeds this fraction of "
+        "the platform radius is poorly determined (warn), beyond 3 times it undetermined (fail); gains: "
+        "1e-3 per mm of that limit (default %(default)s)",
+    )
+    p.add_argument(
+        "--max-change",
+        type=float,
+        default=MAX_CHANGE,
+        metavar="FRACTION",
+        help="a parameter change beyond this fraction of the machine's size (base radius for u, platform "
+        "radius for s, the larger for l0, 1 for gains) is implausible: fail (default %(default)s)",
+    )
     p.add_argument("--euler", help=EULER_HELP)
-    p.add_argument("--report", help="save the report as text")
-    p.add_argument("--json", help="save the result as JSON")
+    p.add_argument("--report", help="save the report as text (default: not saved)")
+    p.add_argument("--json", help="save the result as JSON (default: not saved; keys in the README)")
     p.add_argument(
         "--html", metavar="FILE", help="save a self-contained HTML report (verdict, tables, figures)"
     )
@@ -221,3 +330,5 @@ def register(sub: Any) -> None:
     p.add_argument("--setup", metavar="FILE", help="true instrument setup YAML: write an instrument export")
     p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
     p.set_defaults(func=cmd_synthesize)
+    for name in ("identify", "validate", "compensate", "synthesize"):
+        show_defaults(sub.choices[name])

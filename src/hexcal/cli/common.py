@@ -337,3 +337,29 @@ def inputs_record(files: dict[str, str | None], args: argparse.Namespace) -> dic
         "hexcal version": version("hexcal"),
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
     }
+
+
+def show_defaults(parser: argparse.ArgumentParser) -> None:
+    """Append ``(default ...)`` to the help of every option whose help does not state it.
+
+    >>> p = argparse.ArgumentParser()
+    >>> _ = p.add_argument("--seed", type=int, default=0, help="random seed")
+    >>> show_defaults(p)
+    >>> p._actions[-1].help
+    'random seed (default %(default)s)'
+    """
+    for action in parser._actions:
+        if not action.option_strings or action.help == argparse.SUPPRESS or action.dest == "help":
+            continue
+        text = action.help or ""
+        if "default" in text:
+            continue
+        if action.required:
+            continue
+        if isinstance(action, argparse._StoreTrueAction):
+            suffix = "(default: off)"
+        elif action.default is None:
+            suffix = "(default: none)"
+        else:
+            suffix = "(default %(default)s)"
+        action.help = f"{text} {suffix}".strip()

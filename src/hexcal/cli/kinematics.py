@@ -16,6 +16,7 @@ from hexcal.cli.common import (
     CommandError,
     id_list,
     load_geometry,
+    show_defaults,
     warn,
 )
 
@@ -55,7 +56,12 @@ def cmd_fk(args: argparse.Namespace) -> None:
 
     geometry = load_geometry(args.geometry, args.euler)
     legs = read_legs(args.legs)
-    lengths = legs.lengths if legs.lengths is not None else leg_lengths(geometry, legs.readings)
+    if legs.readings is not None:  # the controller's readings, through the geometry's l0 and gains
+        if legs.lengths is not None:
+            warn(f"hexcal: {args.legs} has both l and dl columns: using dl (the controller's readings)")
+        lengths = leg_lengths(geometry, legs.readings)
+    else:
+        lengths = legs.lengths
     short, long = leg_limit_violations(geometry, lengths)
     outside = np.flatnonzero(short | long)
     if outside.size:
@@ -106,9 +112,15 @@ def register(sub: Any) -> None:
 
     p = sub.add_parser("fk", help="forward kinematics: poses of leg lengths or readings")
     p.add_argument("--geometry", required=True, help=GEOMETRY_HELP)
-    p.add_argument("--legs", required=True, help="leg CSV file (l1..l6 or dl1..dl6)")
+    p.add_argument(
+        "--legs",
+        required=True,
+        help="leg CSV file (l1..l6 or dl1..dl6 in mm; dl is used when both are given)",
+    )
     p.add_argument("--out", required=True, help="pose CSV file to write")
     p.add_argument("--guess", help="pose CSV file of starting poses (default: the home pose)")
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--tol", type=float, default=1e-9, help="leg length tolerance, mm")
     p.set_defaults(func=cmd_fk)
+    for name in ("preset", "ik", "fk"):
+        show_defaults(sub.choices[name])

@@ -33,6 +33,7 @@ from hexcal.cli.common import (
     id_list,
     load_geometry,
     parse_noise,
+    show_defaults,
     warn,
 )
 
@@ -160,7 +161,7 @@ def cmd_observability(args: argparse.Namespace) -> None:
     check_outputs(args.json)
     geometry = load_geometry(args.geometry, args.euler)
     scaling = choice(args.scaling, SCALINGS, "--scaling")
-    method = choice(args.method, ("length", "paper"), "--method")
+    method = choice(args.method, ("ml", "length", "paper"), "--method")
     mask = fit_mask(args.fit)
     noise = _noise(args)
     poses, ids = read_poses(args.poses, geometry.euler)
@@ -171,7 +172,11 @@ def cmd_observability(args: argparse.Namespace) -> None:
     else:
         test = None
     try:
-        analysis = analyse_poses(geometry, poses, noise, mask, test, scaling, method, args.weighted)
+        analysis = analyse_poses(
+            geometry, poses, noise, mask, test, scaling, "length" if method == "ml" else method, args.weighted
+        )
+        if method == "ml":
+            analysis = _as_ml(analysis, geometry, poses, noise, mask, test)
     except np.linalg.LinAlgError as exc:
         raise CommandError(f"{args.poses}: cannot analyse these poses ({exc})") from None
     report = check_feasibility(geometry, poses)
@@ -179,11 +184,44 @@ def cmd_observability(args: argparse.Namespace) -> None:
         bad = [ids[k] for k in np.flatnonzero(~report.feasible)]
         warn(f"hexcal: warning: {args.poses}: {report.summary()} (ids {id_list(bad)})")
     data = analysis.to_dict()
+    data["method"] = method
     print(render("observability", data, fit=args.fit))
     if args.json:
         with atomic_write(args.json) as fh:
             fh.write(render("observability", data, "json"))
         print(f"wrote {args.json}")
+
+
+def _as_ml(analysis: Any, geometry: Any, poses: Any, noise: Any, mask: Any, test: Any) -> Any:
+    """The analysis with the maximum-likelihood estimator's prediction (identify's default):
+    its covariance is the Cramér–Rao bound, at the parameters and at the test poses."""
+    import dataclasses
+
+    import numpy as np
+
+    from hexcal.design import predicted_pose_errors
+    from hexcal.estimation import cramer_rao_covariance
+
+    changes: dict[str, Any] = {
+        "std_estimator": analysis.std_bound,
+        "mean_error_estimator": analysis.mean_error_bound,
+    }
+    if test is not None and analysis.test_position_rms.size:
+        pos, rot = predicted_pose_errors(
+            geometry, test, cramer_rao_covariance(geometry, poses, noise, mask), mask
+        )
+        lost = ~np.isfinite(analysis.test_position_rms)  # unbounded stays unbounded
+        changes["test_position_rms"] = np.where(lost, np.inf, pos)
+        changes["test_orientation_rms"] = np.where(lost, np.inf, rot)
+    return dataclasses.replace(analysis, **changes)
+
+
+def _headline_ml(data: dict[str, Any]) -> None:
+    """``select``'s predictions for identify's default estimator (ml: the Cramér–Rao bound);
+    the unweighted least-squares prediction stays under ``length``."""
+    data["method"] = "ml"
+    for row in data["predicted_mean_abs_error_mm"].values():
+        row["length"], row["estimator"] = row["estimator"], row["bound"]
 
 
 # -- candidates and select ---------------------------------------------------------------------
@@ -277,6 +315,7 @@ def cmd_select(args: argparse.Namespace) -> None:
         raise CommandError(f"--n {n}: at least {min_poses} poses are needed to identify the parameters")
     selection, warning = _select(args, geometry, criterion, noise, mask, np.random.default_rng(args.seed))
     data = selection.to_dict()
+    _headline_ml(data)
     print(render("select", data))
     if warning:
         warn(warning)
@@ -320,7 +359,12 @@ def register(sub: Any) -> None:
     p.add_argument("--test-poses", help="pose CSV file where to predict the pose error (default: corners)")
     p.add_argument("--scaling", default="norm", help="column scaling of the indices: norm, parameter, none")
     p.add_argument("--weighted", action="store_true", help="indices of the noise-whitened Jacobian")
-    p.add_argument("--method", default="length", help="estimator residual predicted: length or paper")
+    p.add_argument(
+        "--method",
+        default="ml",
+        help="estimator predicted: ml (identify's default; its covariance is the Cramér–Rao bound), "
+        "length or paper (default %(default)s)",
+    )
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: plan for targets or a tool")
     p.set_defaults(func=cmd_observability)
@@ -337,7 +381,12 @@ def register(sub: Any) -> None:
     p = sub.add_parser("select", help="select optimal measurement poses (greedy + exchange)")
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
     p.add_argument("--n", type=int, default=15, help="number of poses (default 15, as the paper)")
-    p.add_argument("--criterion", default="D", help="D, A, E or O4 (default D)")
+    p.add_argument(
+        "--criterion",
+        default="A",
+        help="D, A, E or O4 (default %(default)s: A-optimal, the closest to the mean absolute error, "
+        "as simulate --strategies selected; the default was D before)",
+    )
     p.add_argument("--candidates", default="grid", help=CANDIDATES_HELP)
     p.add_argument("--strategy", default="optimal", help="optimal (default) or paper (n random corners)")
     p.add_argument("--seed", type=int, default=0)
@@ -351,3 +400,5 @@ def register(sub: Any) -> None:
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: poses optimal for it")
     p.set_defaults(func=cmd_select)
+    for name in ("errormap", "observability", "candidates", "select"):
+        show_defaults(sub.choices[name])

@@ -24,6 +24,7 @@ from hexcal.cli.common import (
     noise_options,
     output_folder,
     parse_noise,
+    show_defaults,
 )
 
 
@@ -48,6 +49,27 @@ def _noise_levels(text: str) -> list[float]:
     return levels
 
 
+def _true_machine(args: argparse.Namespace, default: str) -> tuple[Any, str | None]:
+    """The ``--true`` machine (None: random errors around the nominal, one per trial) and,
+    when ``--true`` is not given and the machine is random, the line that says so."""
+    spec = args.true or default
+    note = None
+    if args.true is None and spec == "random":
+        note = (
+            "hexcal: no --true: the simulated real machines are random errors around the nominal "
+            "geometry (U(±5 mm), one machine per trial)"
+        )
+    return (None if spec == "random" else load_geometry(spec)), note
+
+
+def _machines(nominal: Any, true: Any) -> dict[str, Any]:
+    """The nominal and true geometries, recorded in every output."""
+    return {
+        "nominal_geometry": nominal.to_dict(),
+        "true_geometry": true.to_dict() if true is not None else "random: nominal + U(±5 mm) per trial",
+    }
+
+
 def cmd_simulate(args: argparse.Namespace) -> None:
     """Monte Carlo study of calibration campaigns: strategies x pose counts x noise x methods."""
     if args.setup:  # an instrument setup: cli/instrument_plan.py
@@ -60,7 +82,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     from hexcal.simulation import STRATEGIES, fixed_strategy, run_study
 
     nominal = load_geometry(args.geometry)
-    true = None if args.true == "random" else load_geometry(args.true)
+    true, note = _true_machine(args, default="random")
     check_trials(args.trials)
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     bad = [m for m in methods if m not in ESTIMATORS]
@@ -88,6 +110,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         for v in levels
     }
     out = output_folder(args.out)
+    if note:
+        print(note, file=sys.stderr)
     cells = run_study(
         nominal,
         true,
@@ -104,12 +128,25 @@ def cmd_simulate(args: argparse.Namespace) -> None:
 
     rows = [c.row() for c in cells]
     print(render("study", rows))
+    failed = sum(int(r.get("failures", 0)) for r in rows)
+    if failed:
+        print(
+            f"{failed} of {len(rows) * args.trials} trial(s) failed (a simulated machine could not reach a "
+            "pose, or the identification failed): left out of the statistics, counted in 'failures'"
+        )
     if out is not None:
         from hexcal.io import atomic_write, write_table
         from hexcal.report import plot_study, study_table
 
         out.mkdir(parents=True, exist_ok=True)
-        study = {"trials": args.trials, "seed": args.seed, "noise": base.describe(), "cells": rows}
+        study = {
+            "trials": args.trials,
+            "seed": args.seed,
+            "noise": base.describe(),
+            "noise_sigmas": dict(zip(("leg", "position", "orientation"), base.sigmas, strict=True)),
+            **_machines(nominal, true),
+            "cells": rows,
+        }
         with atomic_write(out / "study.json") as fh:
             fh.write(render("study", study, "json"))
         columns, values, ids, comment = study_table(rows)
@@ -125,10 +162,13 @@ def cmd_paper(args: argparse.Namespace) -> None:
     from hexcal.simulation import run_paper_experiment
 
     nominal = load_geometry(args.geometry)
-    true = None if args.true == "random" else load_geometry(args.true)
+    # the seed paper's machine by default; random errors around any other --geometry
+    true, note = _true_machine(args, default="paper-hmt-true" if args.geometry == "paper-hmt" else "random")
     check_trials(args.trials)
     noise = parse_noise(args.noise, args.noise_dist)
     out = output_folder(args.out)
+    if note:
+        print(note, file=sys.stderr)
     print(
         f"Simulating the seed paper's experiment: {args.trials} trials, "
         f"nominal {nominal.name or args.geometry}, "
@@ -158,7 +198,9 @@ def cmd_paper(args: argparse.Namespace) -> None:
             "position": noise.position,
             "orientation": noise.orientation,
             "distribution": noise.distribution,
+            "sigmas": dict(zip(("leg", "position", "orientation"), noise.sigmas, strict=True)),
         },
+        **_machines(nominal, true),
     )
     elapsed = time.perf_counter() - start
     print(render("paper", summary))
@@ -184,7 +226,10 @@ def register(sub: Any) -> None:
     p = sub.add_parser("simulate", help="Monte Carlo study of calibration campaigns")
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {GEOMETRY_HELP}")
     p.add_argument(
-        "--true", default="paper-hmt-true", help="the real machine, or 'random' (nominal + U(±5 mm))"
+        "--true",
+        default=None,
+        help="the real machine (geometry or preset), or 'random' (nominal + U(±5 mm) per trial); "
+        "default: random, announced",
     )
     p.add_argument(
         "--methods", default="paper,ml", help="estimators, comma-separated: ml, gls, length, paper"
@@ -211,8 +256,9 @@ def register(sub: Any) -> None:
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {GEOMETRY_HELP}")
     p.add_argument(
         "--true",
-        default="paper-hmt-true",
-        help="the real machine: geometry or preset, or 'random' for nominal + U(±5 mm)",
+        default=None,
+        help="the real machine: geometry or preset, or 'random' for nominal + U(±5 mm); default: "
+        "paper-hmt-true for the paper-hmt geometry, random (announced) for any other",
     )
     p.add_argument("--trials", type=int, default=100)
     p.add_argument("--seed", type=int, default=0)
@@ -225,3 +271,5 @@ def register(sub: Any) -> None:
     p.add_argument("--out", help="folder for table1.json and the figures")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=cmd_paper)
+    for name in ("simulate", "paper"):
+        show_defaults(sub.choices[name])

@@ -19,29 +19,38 @@ def identification_dict(
 ) -> dict[str, Any]:
     """Machine-readable form of an identification (the ``hexcal identify --json`` file).
 
-    ``result`` is an :class:`hexcal.estimation.IdentificationResult`.
+    ``result`` is an :class:`hexcal.estimation.IdentificationResult`. The keys of
+    ``result.to_dict()`` (``verdict``, ``reasons``, ``parameters``, ``stderr``, ``bound``,
+    ``reduced_chi_square``, ``noise`` as standard deviations with its ``source``, ``rank``,
+    ``outliers``...; lengths in mm, angles in rad), after the identification's summary
+    (``method``, ``poses``, ``parameters``, ``start``), plus ``noise_implied``: the
+    instrument noise the estimated noise implies (σ and uniform half-widths, or None).
     """
+    full = result.to_dict()
+    out = {k: full[k] for k in ("method", "poses", "parameters", "start")}
+    out |= {k: v for k, v in full.items() if k not in out}
+    out["outliers"], out["flagged"] = list(outliers or full["outliers"]), list(flagged or full["flagged"])
+    out["noise_implied"] = implied_noise(full["noise"])
+    return out
+
+
+def implied_noise(noise: dict[str, Any] | None) -> dict[str, Any] | None:
+    """The instrument noise an estimated noise model implies: σ, uniform half-widths
+    (σ·√3) and the ``--noise`` option that gives it (None for a given noise).
+
+    >>> implied_noise({"leg": 0.01, "position": 0.1, "orientation": 0.001, "source": "estimated"})["option"]
+    '--noise leg=0.01,pos=0.1,ang=0.001 --noise-dist normal'
+    """
+    if not noise or noise.get("source") != "estimated":
+        return None
+    keys = {"leg": "leg", "position": "pos", "orientation": "ang"}
+    sigma = {k: float(noise[k]) for k in keys}
+    option = ",".join(f"{keys[k]}={v:.3g}" for k, v in sigma.items())
     return {
-        "method": result.method,
-        "poses": result.n_poses,
-        "parameters": result.parameters,
-        "start": dict(zip(result.names, result.start_values.tolist(), strict=True)),
-        "stderr": result.standard_errors,
-        "rank": result.rank,
-        "n_parameters": len(result.names),
-        "singular_values": result.singular_values.tolist(),
-        "leg_rms_before": result.leg_rms_before,
-        "leg_rms_after": result.leg_rms_after,
-        "rms_before": result.rms_before,
-        "rms_after": result.rms_after,
-        "cost": result.cost,
-        "iterations": result.njev,
-        "function_evaluations": result.nfev,
-        "status": result.status,
-        "message": result.message,
-        "outliers": list(outliers),
-        "flagged": list(flagged),
-        "ids": list(result.ids),
+        "sigma": sigma,
+        "stderr": noise.get("stderr"),
+        "uniform_half_width": {k: v * 3**0.5 for k, v in sigma.items()},
+        "option": f"--noise {option} --noise-dist normal",
     }
 
 
@@ -65,7 +74,8 @@ def identification_report_dict(
 ) -> dict[str, Any]:
     """:func:`identification_dict` with what the text report adds.
 
-    Extra keys: ``dof``, ``reduced_chi2``, ``noise`` (its description, or None),
+    Extra keys: ``dof``, ``reduced_chi2``, ``noise_text`` (the noise model's description,
+    or None),
     ``stderr_values`` and ``bound`` (lists in the order of ``parameters``; ``bound`` None
     without a noise model), ``correlations`` (the ``max_correlations`` strongest pairs
     ``[name, name, value]``) and ``weak`` (``[σ/σmax, combination]`` of the three
@@ -83,7 +93,7 @@ def identification_report_dict(
         **identification_dict(result, outliers, flagged),
         "dof": result.dof,
         "reduced_chi2": float(result.reduced_chi2),
-        "noise": None if result.noise is None else result.noise.describe(),
+        "noise_text": None if result.noise is None else result.noise.describe(),
         "stderr_values": result.stderr.tolist(),
         "bound": None if bound is None else np.asarray(bound, dtype=float).tolist(),
         "max_correlations": max_correlations,

@@ -117,7 +117,10 @@ def select_text(data: dict[str, Any]) -> str:
         )
         lines.append(f"  candidate indices: {' '.join(str(int(k)) for k in data['indices'])}")
     lines.append(f"  ids: {' '.join(data['ids'])}")
-    lines.append("Predicted mean absolute parameter error (mm): identify (method length) | Cramér-Rao bound")
+    method = data.get("method", "length")
+    lines.append(
+        f"Predicted mean absolute parameter error (mm): identify (method {method}) | Cramér-Rao bound"
+    )
     selected = rows["selected"]
     lines.append(f"  {'selected poses':<58} {selected['estimator']:8.4f} | {selected['bound']:.4f}")
     for key, text in data["comparisons"].items():

@@ -24,7 +24,6 @@ CORRELATION_REPORT = 0.9
 WEAK_SINGULAR_VALUE = 1e-4
 
 
-
 def paper_text(summary: dict[str, Any]) -> str:
     """Text table of a Table I summary (:func:`hexcal.report.paper_summary`) beside the paper."""
     t = summary["trials"]
@@ -110,13 +109,72 @@ def _fit_statistics(data: dict[str, Any], unit: str, outliers: list[str]) -> lis
         f"    status              {data['status']}: {data['message']}",
         f"    rank                {data['rank']} of {n}",
     ]
-    if data["noise"] is not None:
-        lines.append(f"    noise model         {data['noise']}")
-        if method in ("ml", "gls") and not 0.5 < data["reduced_chi2"] < 2.0:
+    if data.get("noise_text") is not None:
+        lines.append(f"    noise model         {data['noise_text']}")
+        given = (data.get("noise") or {}).get("source") != "estimated"
+        if given and method in ("ml", "gls") and not 0.5 < data["reduced_chi2"] < 2.0:
             lines.append(
                 "    warning: the reduced chi-square is far from 1: the noise model does not describe "
-                "these data (give the instrument's noise with --noise)"
+                "these data (learn it from the data: --noise auto)"
             )
+    return lines
+
+
+#: Order of the reasons in the report: failures first.
+_SEVERITY_ORDER = {"fail": 0, "warn": 1, "info": 2}
+
+
+def verdict_lines(data: dict[str, Any]) -> list[str]:
+    """The verdict in one line (its failing and warning reasons first), then every reason.
+
+    >>> reasons = [{"severity": "info", "message": "fine"}, {"severity": "fail", "message": "bad"}]
+    >>> verdict_lines({"verdict": "fail", "reasons": reasons})[:2]
+    ['Verdict: FAIL: bad', '[[Verdict]]']
+    """
+    verdict = data.get("verdict")
+    if verdict is None:
+        return []
+    reasons = sorted(data.get("reasons") or [], key=lambda r: _SEVERITY_ORDER.get(r["severity"], 3))
+    serious = [r["message"] for r in reasons if r["severity"] in ("fail", "warn")]
+    head = f"Verdict: {verdict.upper()}" + (f": {'; '.join(serious)}" if serious else "")
+    lines = [head, "[[Verdict]]"]
+    lines += [f"    {r['severity']:<5} {r['message']}" for r in reasons] or ["    no finding"]
+    return lines
+
+
+def noise_lines(data: dict[str, Any]) -> list[str]:
+    """The noise model used: estimated (with its uncertainty and the instrument noise it
+    implies) or given (and which groups disagree with the data, by how much)."""
+    noise = data.get("noise")
+    if not noise:
+        return []
+    units = {"leg": "mm", "position": "mm", "orientation": "rad"}
+    lines = ["[[Noise]]"]
+    stderr = noise.get("stderr") or {}
+    parts = []
+    for group, unit in units.items():
+        err = f" ± {stderr[group]:.2g}" if group in stderr else ""
+        parts.append(f"{group} σ {noise[group]:.4g}{err} {unit}")
+    if noise.get("source") == "estimated":
+        lines.append("    estimated from the data (--noise auto: the default without --noise)")
+        lines.append("    " + ", ".join(parts))
+        implied = data.get("noise_implied")
+        if implied:
+            half = ", ".join(f"{k} {v:.3g}" for k, v in implied["uniform_half_width"].items())
+            lines.append(f"    instrument noise implied: {implied['option']} (uniform half-widths {half})")
+        return lines
+    lines.append("    given: " + ", ".join(parts) + " (standard deviations)")
+    check = data.get("noise_check")
+    if check:
+        bad = [g for g, c in check.items() if c.get("disagrees")]
+        for group in bad:
+            c = check[group]
+            lines.append(
+                f"    disagrees: {group} σ from the data {c['given'] * c['ratio']:.3g} {units[group]}, "
+                f"given {c['given']:.3g} (× {c['ratio']:.3g}, p {c['p_value']:.1e})"
+            )
+        if not bad:
+            lines.append("    the data agree with the given noise (every group)")
     return lines
 
 
@@ -128,7 +186,7 @@ def identification_text(data: dict[str, Any]) -> str:
     unit = {"length": "mm", "paper": "mm²"}.get(data["method"], "whitened, 1")
     names = list(data["parameters"])
     n = len(names)
-    lines = _fit_statistics(data, unit, data["outliers"])
+    lines = verdict_lines(data) + _fit_statistics(data, unit, data["outliers"]) + noise_lines(data)
     bound = data["bound"]
     header = f"    {'name':<8}{'nominal':>14}{'identified':>14}{'change':>12}{'stderr':>12}"
     lines += ["[[Parameters]]", header + (f"{'CR bound':>12}" if bound is not None else "")]
@@ -173,7 +231,10 @@ def identification_text(data: dict[str, Any]) -> str:
             f"    warning: implausible residuals at pose(s) {', '.join(flagged)}: a gross measurement "
             "error? (use --robust to identify without them)"
         )
-    else:
+    screened = [r for r in data.get("reasons") or [] if r.get("code") in ("gross-outlier", "outlier")]
+    for reason in screened:
+        lines.append(f"    {reason['severity']}: {reason['message']}")
+    if not flagged and not screened:
         lines.append("    no pose with implausible residuals")
     return "\n".join(lines)
 
