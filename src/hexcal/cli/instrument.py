@@ -158,7 +158,14 @@ def validate_with_setup(args: argparse.Namespace) -> None:
     if args.out:
         errors = np.asarray(result.errors, dtype=float).reshape(len(data.readings), -1)
         columns = [f"{t}.error" for t in setup.target_names] if setup.kind == "targets" else ["error"]
-        write_table(args.out, columns, errors, list(data.ids), comment="distance measured - predicted, mm")
+        write_table(
+            args.out,
+            columns,
+            errors,
+            list(data.ids),
+            comment="distance measured - predicted, mm; empty: target not seen",
+            missing=True,
+        )
         print(f"wrote the per-pose table to {args.out}")
 
 

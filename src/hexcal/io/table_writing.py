@@ -29,9 +29,16 @@ class TableWriter:
     """Writes a CSV table block by block on an open text handle (see :func:`write_table_blocks`)."""
 
     def __init__(
-        self, fh: IO[str], name: str, columns: Sequence[str], with_ids: bool, comment: str | None = None
+        self,
+        fh: IO[str],
+        name: str,
+        columns: Sequence[str],
+        with_ids: bool,
+        comment: str | None = None,
+        missing: bool = False,
     ) -> None:
         self.fh, self.name, self.columns, self.with_ids = fh, name, tuple(columns), with_ids
+        self.missing = missing
         self.rows = 0
         self._template = ",".join(["%.15g"] * len(self.columns)) + "\n"
         if comment:
@@ -45,7 +52,7 @@ class TableWriter:
             raise ValueError(f"data must have shape (k, {len(self.columns)}), got {data.shape}")
         if self.with_ids != (ids is not None) or (ids is not None and len(ids) != len(data)):
             raise ValueError("give one id per row exactly when the table has ids")
-        bad = np.argwhere(~np.isfinite(data))
+        bad = np.argwhere(np.isinf(data) if self.missing else ~np.isfinite(data))
         if bad.size:
             r, c = bad[0]
             label = f"id {ids[r]!r}" if ids is not None else f"row {self.rows + r + 1}"
@@ -55,7 +62,12 @@ class TableWriter:
             )
         if len(data) == 0:
             return
-        text = (self._template * len(data)) % tuple(data.ravel().tolist())  # one call per block
+        if self.missing and np.isnan(data).any():  # an empty cell: a value that does not exist
+            text = "".join(
+                ",".join("" if np.isnan(v) else format(v, ".15g") for v in row) + "\n" for row in data
+            )
+        else:
+            text = (self._template * len(data)) % tuple(data.ravel().tolist())  # one call per block
         if ids is not None:
             ids = [str(value) for value in ids]
             wrong = [t for t in ids if not t.strip() or t.lstrip()[:1] == "#" or "\n" in t or "\r" in t]
@@ -78,6 +90,7 @@ def write_table_blocks(
     blocks: Iterable[tuple[NDArray[np.float64], Sequence[str] | None]],
     comment: str | None = None,
     outputs: OutputSet | None = None,
+    missing: bool = False,
 ) -> int:
     """Write a table from an iterable of ``(data, ids)`` blocks; returns the number of rows.
 
@@ -90,7 +103,7 @@ def write_table_blocks(
         writer: TableWriter | None = None
         for data, ids in blocks:
             if writer is None:
-                writer = TableWriter(fh, name, columns, ids is not None, comment)
+                writer = TableWriter(fh, name, columns, ids is not None, comment, missing)
             writer.write(data, ids)
         if writer is None or writer.rows == 0:
             raise OutputError(f"{name}: no rows to write; hexcal does not write a table without rows")
@@ -104,10 +117,12 @@ def write_table(
     ids: Sequence[str] | None = None,
     comment: str | None = None,
     outputs: OutputSet | None = None,
+    missing: bool = False,
 ) -> None:
     """Write a CSV table (with an ``id`` column when ``ids`` is given), staged.
 
     Refused before anything is written: no rows, or a NaN or infinity (hexcal refuses to
-    read them back).
+    read them back). With ``missing``, NaN is a value that does not exist (a target not
+    seen) and is written as an empty cell, as in a target measurement file.
     """
-    write_table_blocks(path, columns, [(np.asarray(data, dtype=float), ids)], comment, outputs)
+    write_table_blocks(path, columns, [(np.asarray(data, dtype=float), ids)], comment, outputs, missing)
