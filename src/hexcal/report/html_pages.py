@@ -168,16 +168,25 @@ def tables_page(report: Mapping[str, Any]) -> str:
     """A page of tables and figures (``hexcal paper`` and ``hexcal simulate``).
 
     ``report["tables"]`` maps a title to ``{"columns": [...], "rows": [[...], ...]}``; an
-    optional ``report["text"]`` is shown preformatted (the command's text table).
+    optional ``report["text"]`` is shown preformatted (the command's text table, folded);
+    the figures come after the tables, or first with ``report["figures_first"]``.
     """
     sections = []
     for title, table in report.get("tables", {}).items():
-        sections.append(section(title, data_table(table["columns"], table["rows"], table_id=_slug(title))))
-    if report.get("text"):
-        sections.append(section("As printed", f'<pre class="mono">{esc(report["text"])}</pre>', "text"))
+        body = data_table(
+            table["columns"], table["rows"], table_id=_slug(title), scroll=len(table["rows"]) > 20
+        )
+        sections.append(section(title, body + '<p class="muted">Click a column to sort.</p>', _slug(title)))
     figures = report.get("figures", {})
     if figures:
-        sections.append(section("Figures", figure_grid(figures, report.get("captions", {})), "figures"))
+        grid = section("Figures", figure_grid(figures, report.get("captions", {})), "figures")
+        sections.insert(0 if report.get("figures_first") else len(sections), grid)
+    if report.get("text"):
+        printed = (
+            "<details><summary>the command's text output</summary>"
+            f'<pre class="mono">{esc(report["text"])}</pre></details>'
+        )
+        sections.append(section("As printed", printed, "text"))
     sections.append(section("Inputs", inputs_table(report.get("inputs", {})), "inputs"))
     return html_page(report.get("title", "hexcal report"), sections, report.get("subtitle", ""))
 
