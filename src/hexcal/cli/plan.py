@@ -113,10 +113,12 @@ def cmd_errormap(args: argparse.Namespace) -> None:
     out.mkdir(exist_ok=True)
     for name, (columns, rows, ids, comment) in errormap_tables(maps).items():
         write_table(out / f"errormap_{name}.csv", columns, rows, ids, comment=comment)
+    note = f"parameter errors uniform in ±{args.amplitude:g} mm · {args.draws} draws ({method})"
+    note += f" · seed {args.seed}"
     for axis, line in maps.lines.items():
-        plot_error_lines(line, out / ERRORMAP_FIGURES[axis])
+        plot_error_lines(line, out / ERRORMAP_FIGURES[axis], note=note)
     for name, grid in maps.angles.items():
-        plot_error_angles(grid, out / ERRORMAP_FIGURES[name])
+        plot_error_angles(grid, out / ERRORMAP_FIGURES[name], note=note)
     settings = {
         "geometry": geometry.name or str(args.geometry),
         "levels": args.levels,

@@ -249,7 +249,8 @@ def plot_error_angles(angle_map: Any, path: str | os.PathLike[str], note: str = 
 
     Top row position error (mm), bottom row orientation error (mrad); left at the lowest,
     right at the highest z level. The two panels of a row share one colour scale (and one
-    colour bar), so that the z levels compare at a glance; ``note`` is written below.
+    colour bar), so that the z levels compare at a glance; labelled white contours show the
+    variation within each panel; ``note`` is written below.
     """
     v1, v2 = (np.rad2deg(v) for v in angle_map.values)
     picks = (0, len(angle_map.levels) - 1)
@@ -265,6 +266,9 @@ def plot_error_angles(angle_map: Any, path: str | os.PathLike[str], note: str = 
         for col, k in enumerate(picks):
             ax = axes[row, col]
             filled = ax.contourf(v1, v2, values[k].T, levels=bounds, cmap="viridis")
+            # labelled contours of the panel itself: the variation within one z level
+            lines = ax.contour(v1, v2, values[k].T, levels=5, colors="white", linewidths=0.6)
+            ax.clabel(lines, fontsize=7, fmt="%.3g")
             ax.set_xlabel(f"{angle_map.axes[0]} (deg)")
             ax.set_ylabel(f"{angle_map.axes[1]} (deg)")
             ax.set_title(f"z = {angle_map.levels[k]:g} mm")
