@@ -41,6 +41,9 @@ IDENTIFICATION_CAPTIONS = {
     "(right); dashed: the workspace box.",
 }
 
+#: At most this many rows in a per-pose table (the worst poses; a note says so).
+MAX_POSE_ROWS = 2000
+
 VALIDATION_CAPTIONS = {
     "pose_errors": "Position and orientation error of every held-out pose, nominal and calibrated geometry.",
     "distributions": "Distribution of the held-out pose errors, nominal and calibrated geometry.",
@@ -154,9 +157,17 @@ def validation_page(report: Mapping[str, Any]) -> str:
             for k, pid in enumerate(first["ids"])
         ]
         cols = ["pose"] + [f"{name} {q}" for name in results for q in ("position (mm)", "orientation (rad)")]
-        sections.append(
-            section("Per pose", data_table(cols, per_pose, table_id="poses", scroll=True), "poses")
-        )
+        note = ""
+        if len(per_pose) > MAX_POSE_ROWS:
+            # a table of 10,000 rows slows the page down: keep the worst poses, say so
+            per_pose = sorted(per_pose, key=lambda row: -row[1])[:MAX_POSE_ROWS]
+            note = (
+                f'<p class="muted" id="poses-note">The {MAX_POSE_ROWS} poses with the largest '
+                f"{next(iter(results))} position error of {len(first['ids'])}; the full table: "
+                "<code>hexcal validate --out FILE</code>.</p>"
+            )
+        table = data_table(cols, per_pose, table_id="poses", scroll=True)
+        sections.append(section("Per pose", table + note, "poses"))
     figures = report.get("figures", {})
     if figures:
         sections.append(section("Figures", figure_grid(figures, VALIDATION_CAPTIONS), "figures"))
