@@ -197,8 +197,8 @@ def _check_html(args: argparse.Namespace, inputs: list[str], outputs: list[str])
     from hexcal.cli.common import check_outputs
     from hexcal.report.html_reports import check_html_target
 
-    check_outputs(args.html)
     check_html_target(args.html, inputs, [Path(args.out) / name for name in outputs] if args.out else [])
+    check_outputs(args.html)
 
 
 def _write_html(

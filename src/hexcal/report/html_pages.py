@@ -14,6 +14,7 @@ True
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from typing import Any
 
@@ -187,7 +188,9 @@ def tables_page(report: Mapping[str, Any]) -> str:
         body = data_table(
             table["columns"], table["rows"], table_id=_slug(title), scroll=len(table["rows"]) > 20
         )
-        sections.append(section(title, body + '<p class="muted">Click a column to sort.</p>', _slug(title)))
+        sections.append(
+            section(title, body + '<p class="muted">Click a column to sort.</p>', f"{_slug(title)}-section")
+        )
     figures = report.get("figures", {})
     if figures:
         grid = section("Figures", figure_grid(figures, report.get("captions", {})), "figures")
@@ -203,4 +206,4 @@ def tables_page(report: Mapping[str, Any]) -> str:
 
 
 def _slug(text: str) -> str:
-    return "".join(c if c.isalnum() else "-" for c in text.lower()).strip("-")
+    return re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")
