@@ -191,17 +191,19 @@ def figure_grid(figures: Mapping[str, str], captions: Mapping[str, str] | None =
         cap = captions.get(name, "")
         caption = f"<figcaption>{esc(cap)}</figcaption>" if cap else ""
         body = _unique_ids(_strip_xml_header(svg), f"f{k}-")
-        wide = ' class="wide"' if _aspect(body) > 2.2 else ""
+        width, aspect = _size(body)
+        wide = ' class="wide"' if width > 640 and aspect > 1.6 else ""
         items.append(f'<figure data-figure="{esc(name)}"{wide}>{body}{caption}</figure>')
     return f'<div class="figures">{"".join(items)}</div>'
 
 
-def _aspect(svg: str) -> float:
-    """Width over height of an SVG (0 if unknown): wide figures span the whole grid row."""
+def _size(svg: str) -> tuple[float, float]:
+    """Width (pt) and width over height of an SVG (0, 0 if unknown): wide figures, which
+    would be unreadable at half the page, span the whole row of the grid."""
     size = re.search(r'<svg[^>]*?\bwidth="([\d.]+)[a-z]*"[^>]*?\bheight="([\d.]+)', svg)
     if size is None or float(size.group(2)) == 0:
-        return 0.0
-    return float(size.group(1)) / float(size.group(2))
+        return 0.0, 0.0
+    return float(size.group(1)), float(size.group(1)) / float(size.group(2))
 
 
 def _unique_ids(svg: str, prefix: str) -> str:

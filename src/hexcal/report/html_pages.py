@@ -39,7 +39,7 @@ IDENTIFICATION_CAPTIONS = {
     "singular_values": "Singular values of the column-normalised identification Jacobian, relative to "
     "the largest; the rank threshold is dashed.",
     "workspace": "Measured poses: positions x–y coloured by z (left) and angles a–b coloured by c "
-    "(right); dashed: the workspace box.",
+    "(right); dashed: the nominal workspace box (measured poses of a miscalibrated machine lie off it).",
 }
 
 #: At most this many rows in a per-pose table (the worst poses; a note says so).

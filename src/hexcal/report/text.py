@@ -24,7 +24,6 @@ CORRELATION_REPORT = 0.9
 WEAK_SINGULAR_VALUE = 1e-4
 
 
-
 def paper_text(summary: dict[str, Any]) -> str:
     """Text table of a Table I summary (:func:`hexcal.report.paper_summary`) beside the paper."""
     t = summary["trials"]
