@@ -245,7 +245,12 @@ def plot_error_lines(line_map: Any, path: str | os.PathLike[str], curves: int = 
 
 
 def plot_error_angles(angle_map: Any, path: str | os.PathLike[str], note: str = "") -> None:
-    """Like the seed paper's Figs. 7-9: mean pose error over a grid of two angles.
+    """Like the seed paper's Figs. 7-9 (:func:`error_angles_figure`), saved as a PNG."""
+    _save(error_angles_figure(angle_map, note), path)
+
+
+def error_angles_figure(angle_map: Any, note: str = "") -> plt.Figure:
+    """Mean pose error over a grid of two angles (the seed paper's Figs. 7-9).
 
     Top row position error (mm), bottom row orientation error (mrad); left at the lowest,
     right at the highest z level. The two panels of a row share one colour scale (and one
@@ -278,7 +283,7 @@ def plot_error_angles(angle_map: Any, path: str | os.PathLike[str], note: str = 
         "(one colour scale per row, shared by the z levels)"
     )
     _note(fig, note)
-    _save(fig, path)
+    return fig
 
 
 def plot_selection_study(
