@@ -123,6 +123,13 @@ def command_pages(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     assert main(["paper", *common, "--out", str(folder / "paper"), "--html", str(pages["paper"])]) == 0
     study = ["--poses", "7,15", "--methods", "paper,ml", "--noise-levels", "1,2"]
     assert main(["simulate", *common, *study, "--html", str(pages["simulate"])]) == 0
+    poses = folder / "selected.csv"
+    pages |= {"select": folder / "select.html", "observability": folder / "observability.html"}
+    assert (
+        main(["select", "--geometry", "paper-hmt", "--out", str(poses), "--html", str(pages["select"])]) == 0
+    )
+    observe = ["observability", "--geometry", "paper-hmt", "--poses", str(poses)]
+    assert main([*observe, "--html", str(pages["observability"])]) == 0
     return pages
 
 
@@ -131,6 +138,8 @@ def command_pages(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     [
         ("paper", 2, "table-i-mean-absolute-error-of-the-42-parameters-mm", 5),
         ("simulate", 1, "study-parameter-error-mm-and-pose-errors-per-campaign", 16),
+        ("select", 1, "selected-poses", 15),
+        ("observability", 2, "predicted-standard-deviation-per-parameter", 42),
     ],
 )
 def test_command_page_in_the_browser(
@@ -143,8 +152,8 @@ def test_command_page_in_the_browser(
 ) -> None:
     text = command_pages[name].read_text(encoding="utf-8")
     assert not re.search(r'(src|href)="(https?:)?//', text) and "<link" not in text
-    # the conditions are written on the page and on every figure
-    assert text.count("2 trials · seed 3") >= 1 + figures
+    if name in ("paper", "simulate"):  # the conditions, on the page and on every figure
+        assert text.count("2 trials · seed 3") >= 1 + figures
     opened = open_report(browser, command_pages[name])
     page = opened.page
     try:
@@ -158,14 +167,14 @@ def test_command_page_in_the_browser(
             assert drawn.nth(k).locator("path").count() > 20
         body = page.locator(f"#{table} tbody tr")
         assert body.count() == rows
-        header = page.locator(f"#{table} th").nth(1)  # hexcal mean / noise
+        header = page.locator(f"#{table} th").nth(1)  # a numeric column, or noise of the study
         header.click()
         header.click()
         assert header.get_attribute("aria-sort") == "descending"
         values = page.eval_on_selector_all(
             f"#{table} tbody tr td:nth-child(2)", "cells => cells.map(c => c.dataset.value ?? c.textContent)"
         )
-        numeric = [float(v) for v in values] if name == "paper" else None
+        numeric = None if name == "simulate" else [float(v) for v in values]
         if numeric is not None:
             assert numeric == sorted(numeric, reverse=True)
         else:

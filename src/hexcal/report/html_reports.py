@@ -25,6 +25,7 @@ from hexcal.report.figures import (
     study_figure,
     validation_errors_figure,
 )
+from hexcal.report.html_pages import tables_page
 from hexcal.report.registry import render
 from hexcal.report.tables import STUDY_COLUMNS
 
@@ -241,6 +242,103 @@ def check_html_target(html: str, inputs: Iterable[Any] = (), outputs: Iterable[A
                 raise ValueError(f"--html {html}: is also {role} ({path})")
 
 
+POSES_CAPTION = "The {} poses: x–y coloured by z, a–b coloured by c; dashed: the workspace box."
+
+
+def observability_report(
+    data: Mapping[str, Any], poses: Any, box: Any | None = None, inputs: Mapping[str, Any] | None = None
+) -> dict[str, Any]:
+    """The page of ``hexcal observability --html``: indices, predicted accuracy, the
+    predicted standard deviation of every parameter, singular values, the poses.
+
+    ``data`` is ``PoseAnalysis.to_dict()``; ``poses`` the analysed poses (n, 6).
+    """
+    indices = {k: data.get(k) for k in ("n_poses", "n_parameters", "rank", "condition_number")}
+    indices |= {k: data[k] for k in ("O1", "O2", "O3", "O4", "O5") if k in data}
+    predicted = data.get("predicted_mean_abs_error_mm", {})
+    tests = data.get("test_poses") or {}
+    accuracy = [("mean absolute parameter error (mm)", predicted.get("estimator"), predicted.get("bound"))]
+    for key, label in (
+        ("position_rms_mean_mm", "test pose position RMS, mean (mm)"),
+        ("position_rms_max_mm", "test pose position RMS, max (mm)"),
+        ("orientation_rms_mean_rad", "test pose orientation RMS, mean (rad)"),
+        ("orientation_rms_max_rad", "test pose orientation RMS, max (rad)"),
+    ):
+        if key in tests:
+            accuracy.append((label, tests[key], None))
+    params = [
+        (name, v.get("std_estimator"), v.get("std_bound")) for name, v in data.get("parameters", {}).items()
+    ]
+    figures = {"singular_values": fig.svg(fig.singular_values(data["singular_values"], RANK_RTOL))}
+    figures["workspace"] = fig.svg(fig.workspace_poses(poses, box, "Analysed poses in the workspace"))
+    return {
+        "kind": "tables",
+        "title": "Observability of a measurement pose set",
+        "subtitle": f"{data.get('n_poses')} poses, {data.get('n_parameters')} parameters, "
+        f"residual {data.get('method')}, scaling {data.get('scaling')}",
+        "tables": {
+            "Observability indices": {"columns": ["index", "value"], "rows": list(indices.items())},
+            "Predicted accuracy": {
+                "columns": ["quantity", "estimator", "Cramér–Rao bound"],
+                "rows": accuracy,
+            },
+            "Predicted standard deviation per parameter": {
+                "columns": ["parameter", "estimator (mm)", "Cramér–Rao bound (mm)"],
+                "rows": params,
+            },
+        },
+        "figures": figures,
+        "captions": {
+            "singular_values": "Singular values of the scaled identification Jacobian of these poses.",
+            "workspace": POSES_CAPTION.format("analysed"),
+        },
+        "inputs": dict(inputs or {}),
+    }
+
+
+def selection_report(
+    data: Mapping[str, Any], poses: Any, box: Any | None = None, inputs: Mapping[str, Any] | None = None
+) -> dict[str, Any]:
+    """The page of ``hexcal select --html``: the selection, the predicted errors of the
+    strategies compared, the selected poses (table and workspace figure).
+
+    ``data`` is ``Selection.to_dict()``; ``poses`` the selected poses (n, 6), in the order
+    of ``data["ids"]``.
+    """
+    keys = ("strategy", "criterion", "n", "candidates", "value", "greedy_value", "swaps", "seed")
+    summary = [(k, data[k]) for k in keys if k in data]
+    predicted = [
+        (name, v.get("estimator"), v.get("bound"))
+        for name, v in data.get("predicted_mean_abs_error_mm", {}).items()
+    ]
+    p = np.asarray(poses, dtype=float).reshape(-1, 6)
+    angles = np.rad2deg(p[:, 3:])
+    rows = [(pid, *p[k, :3].tolist(), *angles[k].tolist()) for k, pid in enumerate(data.get("ids", []))]
+    return {
+        "kind": "tables",
+        "title": f"Selected measurement poses ({data.get('n')}, criterion {data.get('criterion')})",
+        "subtitle": f"strategy {data.get('strategy')}, candidates {data.get('candidates')}, "
+        f"seed {data.get('seed')}",
+        "tables": {
+            "Selection": {"columns": ["", "value"], "rows": summary},
+            "Predicted mean absolute parameter error (mm)": {
+                "columns": ["poses", "estimator", "Cramér–Rao bound"],
+                "rows": predicted,
+            },
+            "Selected poses": {
+                "columns": ["id", "x (mm)", "y (mm)", "z (mm)", "a (deg)", "b (deg)", "c (deg)"],
+                "rows": rows,
+            },
+        },
+        "figures": {"workspace": fig.svg(fig.workspace_poses(p, box, "Selected poses in the workspace"))},
+        "captions": {"workspace": POSES_CAPTION.format("selected")},
+        "inputs": dict(inputs or {}),
+    }
+
+
 def render_html(report: Mapping[str, Any]) -> str:
-    """The HTML page of a report mapping (its ``kind`` picks the page)."""
+    """The HTML page of a report mapping (its ``kind`` picks the page; ``tables``: a page
+    of tables and figures, :func:`hexcal.report.html_pages.tables_page`)."""
+    if report.get("kind") == "tables":
+        return tables_page(report)
     return render(report.get("kind", "paper"), report, "html")
