@@ -107,3 +107,94 @@ def test_validation_page_in_the_browser(browser, tmp_path: Path, data: Measureme
         screenshot(opened, "validate-report")
     finally:
         opened.page.context.close()
+
+
+# -- paper and simulate: the tables and figures the commands already make ------------------------
+
+
+@pytest.fixture(scope="module")
+def command_pages(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """``hexcal paper --html`` and ``hexcal simulate --html`` (few trials, one process)."""
+    from hexcal.cli.main import main
+
+    folder = tmp_path_factory.mktemp("commands")
+    pages = {"paper": folder / "paper.html", "simulate": folder / "simulate.html"}
+    common = ["--trials", "2", "--jobs", "1", "--quiet", "--seed", "3"]
+    assert main(["paper", *common, "--out", str(folder / "paper"), "--html", str(pages["paper"])]) == 0
+    study = ["--poses", "7,15", "--methods", "paper,ml", "--noise-levels", "1,2"]
+    assert main(["simulate", *common, *study, "--html", str(pages["simulate"])]) == 0
+    poses = folder / "selected.csv"
+    pages |= {"select": folder / "select.html", "observability": folder / "observability.html"}
+    assert (
+        main(["select", "--geometry", "paper-hmt", "--out", str(poses), "--html", str(pages["select"])]) == 0
+    )
+    observe = ["observability", "--geometry", "paper-hmt", "--poses", str(poses)]
+    assert main([*observe, "--html", str(pages["observability"])]) == 0
+    return pages
+
+
+@pytest.mark.parametrize(
+    ("name", "figures", "table", "rows"),
+    [
+        ("paper", 2, "table-i-mean-absolute-error-of-the-42-parameters-mm", 5),
+        ("simulate", 1, "study-parameter-error-mm-and-pose-errors-per-campaign", 16),
+        ("select", 1, "selected-poses", 15),
+        ("observability", 2, "predicted-standard-deviation-per-parameter", 42),
+    ],
+)
+def test_command_page_in_the_browser(
+    browser,  # noqa: F811
+    command_pages: dict[str, Path],
+    name: str,
+    figures: int,
+    table: str,
+    rows: int,
+) -> None:
+    text = command_pages[name].read_text(encoding="utf-8")
+    assert not re.search(r'(src|href)="(https?:)?//', text) and "<link" not in text
+    if name in ("paper", "simulate"):  # the conditions, on the page and on every figure
+        assert text.count("2 trials · seed 3") >= 1 + figures
+    opened = open_report(browser, command_pages[name])
+    page = opened.page
+    try:
+        assert opened.blocked == [] and opened.console_errors == [] and opened.page_errors == []
+        drawn = page.locator("figure svg")
+        assert drawn.count() == figures
+        for k in range(figures):
+            box = drawn.nth(k).bounding_box()
+            assert box is not None and box["width"] > 400 and box["height"] > 150
+            # something is drawn in it: paths of the data, not only an empty frame
+            assert drawn.nth(k).locator("path").count() > 20
+        body = page.locator(f"#{table} tbody tr")
+        assert body.count() == rows
+        header = page.locator(f"#{table} th").nth(1)  # a numeric column, or noise of the study
+        header.click()
+        header.click()
+        assert header.get_attribute("aria-sort") == "descending"
+        values = page.eval_on_selector_all(
+            f"#{table} tbody tr td:nth-child(2)", "cells => cells.map(c => c.dataset.value ?? c.textContent)"
+        )
+        numeric = None if name == "simulate" else [float(v) for v in values]
+        if numeric is not None:
+            assert numeric == sorted(numeric, reverse=True)
+        else:
+            assert values == sorted(values, reverse=True)
+        assert page.locator("#inputs").get_by_text("hexcal version").count() == 1
+        shot = screenshot(opened, f"{name}-report")
+        assert shot.stat().st_size > 10_000
+    finally:
+        page.context.close()
+
+
+def test_html_target_refused_up_front(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from hexcal.cli.main import main
+
+    out = tmp_path / "paper"
+    out.mkdir()
+    clash = out / "table1.json"
+    clash.write_text("{}", encoding="utf-8")  # an earlier run's output: left as it is
+    assert main(["paper", "--trials", "1", "--out", str(out), "--html", str(clash)]) == 1
+    assert "is also another output" in capsys.readouterr().err
+    assert clash.read_text(encoding="utf-8") == "{}" and sorted(out.iterdir()) == [clash]
+    assert main(["simulate", "--trials", "1", "--html", str(tmp_path / "no" / "x.html")]) == 1
+    assert not (tmp_path / "no").exists()

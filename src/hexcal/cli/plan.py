@@ -114,10 +114,12 @@ def cmd_errormap(args: argparse.Namespace) -> None:
     out.mkdir(exist_ok=True)
     for name, (columns, rows, ids, comment) in errormap_tables(maps).items():
         write_table(out / f"errormap_{name}.csv", columns, rows, ids, comment=comment)
+    note = f"parameter errors uniform in ±{args.amplitude:g} mm · {args.draws} draws ({method})"
+    note += f" · seed {args.seed}"
     for axis, line in maps.lines.items():
-        plot_error_lines(line, out / ERRORMAP_FIGURES[axis])
+        plot_error_lines(line, out / ERRORMAP_FIGURES[axis], note=note)
     for name, grid in maps.angles.items():
-        plot_error_angles(grid, out / ERRORMAP_FIGURES[name])
+        plot_error_angles(grid, out / ERRORMAP_FIGURES[name], note=note)
     settings = {
         "geometry": geometry.name or str(args.geometry),
         "levels": args.levels,
@@ -158,7 +160,11 @@ def cmd_observability(args: argparse.Namespace) -> None:
     from hexcal.io import atomic_write, read_poses
     from hexcal.report import render
 
-    check_outputs(args.json)
+    check_outputs(args.json, args.html)
+    if args.html:
+        from hexcal.report.html_reports import check_html_target
+
+        check_html_target(args.html, [args.geometry, args.poses, args.test_poses], [args.json])
     geometry = load_geometry(args.geometry, args.euler)
     scaling = choice(args.scaling, SCALINGS, "--scaling")
     method = choice(args.method, ("ml", "length", "paper"), "--method")
@@ -190,6 +196,15 @@ def cmd_observability(args: argparse.Namespace) -> None:
         with atomic_write(args.json) as fh:
             fh.write(render("observability", data, "json"))
         print(f"wrote {args.json}")
+    if args.html:
+        from hexcal.cli.common import inputs_record
+        from hexcal.report.html_reports import observability_report, render_html
+
+        files = {"geometry": args.geometry, "poses": args.poses, "test poses": args.test_poses}
+        page = observability_report(data, poses, geometry.workspace, inputs_record(files, args))
+        with atomic_write(args.html) as fh:
+            fh.write(render_html(page))
+        print(f"wrote the HTML report to {args.html}")
 
 
 def _as_ml(analysis: Any, geometry: Any, poses: Any, noise: Any, mask: Any, test: Any) -> Any:
@@ -303,7 +318,11 @@ def cmd_select(args: argparse.Namespace) -> None:
     from hexcal.io import atomic_write, write_poses
     from hexcal.report import render
 
-    check_outputs(args.out, args.json)
+    check_outputs(args.out, args.json, args.html)
+    if args.html:
+        from hexcal.report.html_reports import check_html_target
+
+        check_html_target(args.html, [args.geometry], [args.out, args.json])
     geometry = load_geometry(args.geometry, args.euler)
     criterion = choice(args.criterion, CRITERIA, "--criterion")
     choice(args.strategy, ("optimal", "paper"), "--strategy")
@@ -324,6 +343,14 @@ def cmd_select(args: argparse.Namespace) -> None:
         with atomic_write(args.json) as fh:
             fh.write(render("select", data, "json"))
     print(f"wrote {n} pose(s) to {args.out}")
+    if args.html:
+        from hexcal.cli.common import inputs_record
+        from hexcal.report.html_reports import render_html, selection_report
+
+        page = selection_report(data, selection.poses, geometry.workspace, inputs_record({}, args))
+        with atomic_write(args.html) as fh:
+            fh.write(render_html(page))
+        print(f"wrote the HTML report to {args.html}")
 
 
 # -- parser -------------------------------------------------------------------------------------
@@ -353,6 +380,7 @@ def register(sub: Any) -> None:
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
     p.add_argument("--poses", required=True, help="pose CSV file of the planned measurement poses")
     p.add_argument("--json", help="save the results as JSON")
+    p.add_argument("--html", metavar="FILE", help="save a self-contained HTML report (indices, figures)")
     p.add_argument("--noise", help=NOISE_HELP)
     p.add_argument("--noise-dist", default="uniform", help="uniform (default) or normal")
     p.add_argument("--fit", default="joints,l0", help=FIT_HELP)
@@ -392,6 +420,7 @@ def register(sub: Any) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", required=True, help="pose CSV file of the selected poses")
     p.add_argument("--json", help="save the selection and predictions as JSON")
+    p.add_argument("--html", metavar="FILE", help="save a self-contained HTML report (poses, predictions)")
     p.add_argument("--noise", help=NOISE_HELP)
     p.add_argument("--noise-dist", default="uniform", help="uniform (default) or normal")
     p.add_argument("--fit", default="joints,l0", help=FIT_HELP)

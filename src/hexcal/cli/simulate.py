@@ -84,6 +84,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     nominal = load_geometry(args.geometry)
     true, note = _true_machine(args, default="random")
     check_trials(args.trials)
+    if args.html:
+        _check_html(args, [args.geometry, args.true], ["study.json", "study.csv", "study.png"])
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     bad = [m for m in methods if m not in ESTIMATORS]
     if bad or not methods:
@@ -134,24 +136,29 @@ def cmd_simulate(args: argparse.Namespace) -> None:
             f"{failed} of {len(rows) * args.trials} trial(s) failed (a simulated machine could not reach a "
             "pose, or the identification failed): left out of the statistics, counted in 'failures'"
         )
+    study = {
+        "trials": args.trials,
+        "seed": args.seed,
+        "noise": base.describe(),
+        "noise_sigmas": dict(zip(("leg", "position", "orientation"), base.sigmas, strict=True)),
+        **_machines(nominal, true),
+        "cells": rows,
+    }
+    study["true_machine"] = true.name if true else "random"
+    if args.html:
+        _write_html(args, "study_report", study, {"geometry": args.geometry, "true": args.true})
     if out is not None:
         from hexcal.io import atomic_write, write_table
         from hexcal.report import plot_study, study_table
 
         out.mkdir(parents=True, exist_ok=True)
-        study = {
-            "trials": args.trials,
-            "seed": args.seed,
-            "noise": base.describe(),
-            "noise_sigmas": dict(zip(("leg", "position", "orientation"), base.sigmas, strict=True)),
-            **_machines(nominal, true),
-            "cells": rows,
-        }
         with atomic_write(out / "study.json") as fh:
             fh.write(render("study", study, "json"))
         columns, values, ids, comment = study_table(rows)
         write_table(out / "study.csv", columns, values, ids=ids, comment=comment)
-        plot_study(rows, out / "study.png")
+        from hexcal.report.html_reports import study_note
+
+        plot_study(rows, out / "study.png", study_note(study))
         print(f"wrote {out / 'study.json'}, study.csv and study.png")
 
 
@@ -169,6 +176,9 @@ def cmd_paper(args: argparse.Namespace) -> None:
     out = output_folder(args.out)
     if note:
         print(note, file=sys.stderr)
+    if args.html:
+        figures = ["table1.json", "fig10_parameter_errors.png", "fig11_validation_errors.png"]
+        _check_html(args, [args.geometry, args.true], figures)
     print(
         f"Simulating the seed paper's experiment: {args.trials} trials, "
         f"nominal {nominal.name or args.geometry}, "
@@ -205,12 +215,17 @@ def cmd_paper(args: argparse.Namespace) -> None:
     elapsed = time.perf_counter() - start
     print(render("paper", summary))
     print(f"({elapsed:.1f} s)")
+    from hexcal.report import paper_figure_data
+    from hexcal.report.html_reports import paper_note
+
+    figures = paper_figure_data(experiment) | {"note": paper_note(summary)}
+    if args.html:
+        _write_html(args, "paper_report", summary, {"geometry": args.geometry, "true": args.true}, figures)
     if out is not None:
         from hexcal.io import atomic_write
-        from hexcal.report import paper_figure_data, plot_parameter_errors, plot_validation_errors
+        from hexcal.report import plot_parameter_errors, plot_validation_errors
 
         out.mkdir(parents=True, exist_ok=True)
-        figures = paper_figure_data(experiment)
         plot_parameter_errors(figures, out / "fig10_parameter_errors.png")
         plot_validation_errors(figures, out / "fig11_validation_errors.png")
         with atomic_write(out / "table1.json") as fh:
@@ -219,6 +234,31 @@ def cmd_paper(args: argparse.Namespace) -> None:
             f"wrote {out / 'table1.json'} and the figures fig10_parameter_errors.png, "
             "fig11_validation_errors.png"
         )
+
+
+def _check_html(args: argparse.Namespace, inputs: list[str], outputs: list[str]) -> None:
+    """Refuse ``--html`` up front: a missing folder, an input, or another output."""
+    from pathlib import Path
+
+    from hexcal.cli.common import check_outputs
+    from hexcal.report.html_reports import check_html_target
+
+    check_html_target(args.html, inputs, [Path(args.out) / name for name in outputs] if args.out else [])
+    check_outputs(args.html)
+
+
+def _write_html(
+    args: argparse.Namespace, builder: str, data: Any, files: dict[str, str], *extra: Any
+) -> None:
+    """Write the self-contained HTML report of ``builder`` (html_reports) atomically."""
+    from hexcal.cli.common import inputs_record
+    from hexcal.io import atomic_write
+    from hexcal.report import html_reports
+
+    inputs = inputs_record({k: v for k, v in files.items() if v != "random"}, args)
+    with atomic_write(args.html) as fh:
+        fh.write(html_reports.render_html(getattr(html_reports, builder)(data, *extra, inputs)))
+    print(f"wrote the HTML report to {args.html}")
 
 
 def register(sub: Any) -> None:
@@ -247,6 +287,7 @@ def register(sub: Any) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--jobs", type=int, default=None, help="processes (default: all cores)")
     p.add_argument("--out", help="folder for study.json, study.csv and study.png")
+    p.add_argument("--html", metavar="FILE", help="save a self-contained HTML report (table, figure, inputs)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--setup", metavar="FILE", help="true tracker setup YAML: campaigns with targets (ml)")
     p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
@@ -269,6 +310,9 @@ def register(sub: Any) -> None:
         "--jobs", type=int, default=None, help="processes for the identifications (default: all cores)"
     )
     p.add_argument("--out", help="folder for table1.json and the figures")
+    p.add_argument(
+        "--html", metavar="FILE", help="save a self-contained HTML report (tables, figures, inputs)"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=cmd_paper)
     for name in ("simulate", "paper"):

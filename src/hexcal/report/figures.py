@@ -27,26 +27,114 @@ def _save(fig: plt.Figure, path: str | os.PathLike[str]) -> None:
     os.replace(tmp, path)
 
 
+def _note(fig: plt.Figure, note: str) -> None:
+    """The conditions of a figure (amplitude, noise, trials) as a text line below it."""
+    if note:
+        fig.text(0.5, -0.01, note, ha="center", va="top", fontsize=8, color="0.25")
+
+
+def _legend_outside(ax: Any, fontsize: float = 8) -> None:
+    """The legend right of the axes, off the data."""
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=fontsize, frameon=False)
+
+
+def conditions(
+    trials: int | None = None,
+    noise: Mapping[str, Any] | str | None = None,
+    amplitude: str | float | None = None,
+    seed: int | None = None,
+) -> str:
+    """The one-line conditions written on a figure: parameter errors, noise, trials, seed.
+
+    >>> conditions(100, "leg 0.01 mm", 5.0, 0)
+    'parameter errors ±5 mm · noise leg 0.01 mm · 100 trials · seed 0'
+    """
+    parts = []
+    if amplitude is not None:
+        parts.append(
+            f"parameter errors ±{amplitude:g} mm"
+            if isinstance(amplitude, float | int)
+            else f"parameter errors: {amplitude}"
+        )
+    if isinstance(noise, Mapping):
+        text = (
+            f"noise leg {noise['leg']:g} mm, position {noise['position']:g} mm, "
+            f"orientation {noise['orientation']:g} rad"
+        )
+        if noise.get("distribution"):
+            text += f" ({noise['distribution']})"
+        parts.append(text)
+    elif noise:
+        parts.append(f"noise {noise}")
+    if trials is not None:
+        parts.append(f"{trials} trials")
+    if seed is not None:
+        parts.append(f"seed {seed}")
+    return " · ".join(parts)
+
+
+def parameter_errors_figure(data: Mapping[str, Any]) -> plt.Figure:
+    """The figure of :func:`plot_parameter_errors` (``data["note"]``: the conditions line)."""
+    names = PARAMETER_NAMES[:42]
+    before, interior, boundary = data["before"], data["interior"], data["boundary"]
+    x = np.arange(len(names))
+    fig, ax = plt.subplots(figsize=(13, 4.5))
+    ax.bar(x - 0.27, before, 0.27, color="0.65", label="before calibration")
+    ax.bar(
+        x, interior, 0.27, color="C1", hatch="//", edgecolor="white", lw=0, label="after: 15 interior poses"
+    )
+    ax.bar(x + 0.27, boundary, 0.27, color="C0", label="after: 15 corners")
+    ax.set_xticks(x, names, rotation=90, fontsize=7)
+    ax.set_xlim(-0.7, len(names) - 0.3)
+    ax.set_ylabel("mean absolute parameter error (mm)")
+    ax.set_yscale("log")
+    ax.grid(True, axis="y", which="major", alpha=0.3)
+    ax.set_title(f"Identified parameter errors (mean over {data['trials']} trials)")
+    _legend_outside(ax)
+    _note(fig, data.get("note", ""))
+    return fig
+
+
 def plot_parameter_errors(data: Mapping[str, Any], path: str | os.PathLike[str]) -> None:
     """Like the paper's Fig. 10: error of each parameter before and after calibration.
 
     ``data`` is :func:`hexcal.report.paper_figure_data`: bars are its ``before``,
     ``interior`` and ``boundary`` arrays (42,), the mean absolute error over ``trials``
-    trials of each of the 42 parameters (mm).
+    trials of each of the 42 parameters (mm); an optional ``note`` (see :func:`conditions`)
+    is written below the figure.
     """
-    names = PARAMETER_NAMES[:42]
-    before, interior, boundary = data["before"], data["interior"], data["boundary"]
-    x = np.arange(len(names))
-    fig, ax = plt.subplots(figsize=(13, 4.5))
-    ax.bar(x - 0.27, before, 0.27, label="before calibration")
-    ax.bar(x, interior, 0.27, label="after: 15 interior poses")
-    ax.bar(x + 0.27, boundary, 0.27, label="after: 15 corners")
-    ax.set_xticks(x, names, rotation=90, fontsize=7)
-    ax.set_ylabel("mean absolute error (mm)")
-    ax.set_yscale("log")
-    ax.set_title(f"Identified parameter errors ({data['trials']} trials)")
-    ax.legend()
-    _save(fig, path)
+    _save(parameter_errors_figure(data), path)
+
+
+def validation_errors_figure(data: Mapping[str, Any]) -> plt.Figure:
+    """The figure of :func:`plot_validation_errors`."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), constrained_layout=True)
+    k = np.arange(1, len(data["validation_before"]["position"]) + 1)
+    for ax, key, scale, unit in zip(
+        axes, ("position", "orientation"), (1.0, 1e3), ("mm", "mrad"), strict=True
+    ):
+        ax.semilogy(
+            k,
+            np.asarray(data["validation_before"][key]) * scale,
+            "o--",
+            color="C1",
+            label="nominal parameters",
+        )
+        ax.semilogy(
+            k,
+            np.asarray(data["validation_after"][key]) * scale,
+            "s-",
+            color="C0",
+            label="identified parameters (15 corners)",
+        )
+        ax.set_xlabel("validation pose (corner number)")
+        ax.set_ylabel(f"{key} error ({unit})")
+        ax.set_xticks(k)
+        ax.grid(True, which="both", alpha=0.3)
+    _legend_outside(axes[1])
+    fig.suptitle("Pose errors at the validation corners (first trial)")
+    _note(fig, data.get("note", ""))
+    return fig
 
 
 def plot_validation_errors(data: Mapping[str, Any], path: str | os.PathLike[str]) -> None:
@@ -54,31 +142,24 @@ def plot_validation_errors(data: Mapping[str, Any], path: str | os.PathLike[str]
 
     ``data`` is :func:`hexcal.report.paper_figure_data`: the first trial's errors at the
     validation poses, before (``validation_before``) and after (``validation_after``)
-    calibration, each with ``position`` (mm) and ``orientation`` (rad) arrays.
+    calibration, each with ``position`` (mm) and ``orientation`` (rad) arrays; drawn in mm
+    and mrad, with the optional ``note`` below.
     """
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    k = np.arange(1, len(data["validation_before"]["position"]) + 1)
-    for ax, key, unit in zip(axes, ("position", "orientation"), ("mm", "rad"), strict=True):
-        ax.semilogy(k, data["validation_before"][key], "o-", label="nominal parameters")
-        ax.semilogy(k, data["validation_after"][key], "s-", label="identified parameters")
-        ax.set_xlabel("validation pose")
-        ax.set_ylabel(f"{key} error ({unit})")
-        ax.set_xticks(k)
-        ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend()
-    fig.suptitle("Pose errors at the validation corners (first trial)")
-    _save(fig, path)
+    _save(validation_errors_figure(data), path)
 
 
-def plot_study(rows: Sequence[Any], path: str | os.PathLike[str]) -> None:
-    """Mean absolute parameter error against the number of poses, per strategy and method.
+_STYLES = ("-", "--", "-.", (0, (6, 2, 1, 2, 1, 2)))
+_MARKERS = ("o", "s", "^", "D", "v", "P")
 
-    Dashed lines are the Cramér–Rao bounds of the same pose strategies (one per strategy
-    and noise level). ``rows`` are the ``StudyCell.row()`` dictionaries of a study (cells
-    themselves are accepted too).
-    """
+
+def study_figure(rows: Sequence[Any], note: str = "") -> plt.Figure:
+    """The figure of :func:`plot_study`: colour per strategy, line style per method, marker
+    per noise level, so that no two curves look alike even where colours repeat."""
     rows = [r.row() if hasattr(r, "row") else r for r in rows]
     fig, ax = plt.subplots(figsize=(8, 5))
+    strategies = sorted({r["strategy"] for r in rows})
+    methods = sorted({r["method"] for r in rows})
+    noises = sorted({r["noise"] for r in rows})
     keys = sorted({(r["strategy"], r["noise"], r["method"]) for r in rows})
     for strategy, noise, method in keys:
         sel = sorted(
@@ -88,32 +169,54 @@ def plot_study(rows: Sequence[Any], path: str | os.PathLike[str]) -> None:
         ax.plot(
             [r["poses"] for r in sel],
             [r["error_mean"] for r in sel],
-            "o-",
+            color=f"C{strategies.index(strategy) % 10}",
+            ls=_STYLES[methods.index(method) % len(_STYLES)],
+            marker=_MARKERS[noises.index(noise) % len(_MARKERS)],
             label=f"{strategy}, {method}, noise {noise}",
         )
     for strategy, noise in sorted({(r["strategy"], r["noise"]) for r in rows}):
         sel = sorted(
             (r for r in rows if (r["strategy"], r["noise"]) == (strategy, noise)), key=lambda r: r["poses"]
         )
-        ax.plot([r["poses"] for r in sel], [r["bound"] for r in sel], "k--", lw=0.8, alpha=0.6)
+        ax.plot(
+            [r["poses"] for r in sel],
+            [r["bound"] for r in sel],
+            color=f"C{strategies.index(strategy) % 10}",
+            ls=(0, (1, 2)),
+            lw=1,
+            alpha=0.7,
+        )
+    ax.plot([], [], color="0.3", ls=(0, (1, 2)), lw=1, label="Cramér–Rao bound (per strategy, noise)")
     ax.set_xlabel("number of measurement poses")
     ax.set_ylabel("mean absolute parameter error (mm)")
     ax.set_yscale("log")
     ax.grid(True, which="both", alpha=0.3)
-    ax.set_title("Calibration campaigns (dashed: Cramér–Rao bounds)")
-    ax.legend(fontsize=7)
-    _save(fig, path)
+    ax.set_title("Calibration campaigns: parameter error against pose count")
+    _legend_outside(ax, 7)
+    _note(fig, note)
+    return fig
+
+
+def plot_study(rows: Sequence[Any], path: str | os.PathLike[str], note: str = "") -> None:
+    """Mean absolute parameter error against the number of poses, per strategy and method.
+
+    Dotted lines are the Cramér–Rao bounds of the same pose strategies (one per strategy
+    and noise level). ``rows`` are the ``StudyCell.row()`` dictionaries of a study (cells
+    themselves are accepted too); ``note`` (see :func:`conditions`) is written below.
+    """
+    _save(study_figure(rows, note), path)
 
 
 # -- observability and pose selection (issue 4) -------------------------------------------------
 
 
-def plot_error_lines(line_map: Any, path: str | os.PathLike[str], curves: int = 20) -> None:
+def plot_error_lines(line_map: Any, path: str | os.PathLike[str], curves: int = 20, note: str = "") -> None:
     """Like the seed paper's Figs. 4-6: pose error along a sweep, one curve per level.
 
     Shows ``curves`` of the levels (evenly chosen, coloured by the level value); each curve
     is the mean over the parameter draws. Left: position error (mm); right: orientation
-    error (mrad).
+    error (mrad); ``note`` (amplitude of the parameter errors, see :func:`conditions`) is
+    written below.
     """
     mean_pos = line_map.position.mean(axis=-1)
     mean_ang = line_map.orientation.mean(axis=-1) * 1e3
@@ -137,14 +240,22 @@ def plot_error_lines(line_map: Any, path: str | os.PathLike[str], curves: int = 
         f"Pose error along {line_map.axis} ({len(show)} of {n_levels} {line_map.level_axis} levels; "
         f"mean over {line_map.position.shape[-1]} parameter error draws)"
     )
+    _note(fig, note)
     _save(fig, path)
 
 
-def plot_error_angles(angle_map: Any, path: str | os.PathLike[str]) -> None:
-    """Like the seed paper's Figs. 7-9: mean pose error over a grid of two angles.
+def plot_error_angles(angle_map: Any, path: str | os.PathLike[str], note: str = "") -> None:
+    """Like the seed paper's Figs. 7-9 (:func:`error_angles_figure`), saved as a PNG."""
+    _save(error_angles_figure(angle_map, note), path)
+
+
+def error_angles_figure(angle_map: Any, note: str = "") -> plt.Figure:
+    """Mean pose error over a grid of two angles (the seed paper's Figs. 7-9).
 
     Top row position error (mm), bottom row orientation error (mrad); left at the lowest,
-    right at the highest z level, each panel with its own colour scale.
+    right at the highest z level. The two panels of a row share one colour scale (and one
+    colour bar), so that the z levels compare at a glance; labelled white contours show the
+    variation within each panel; ``note`` is written below.
     """
     v1, v2 = (np.rad2deg(v) for v in angle_map.values)
     picks = (0, len(angle_map.levels) - 1)
@@ -154,16 +265,25 @@ def plot_error_angles(angle_map: Any, path: str | os.PathLike[str]) -> None:
         (angle_map.orientation * 1e3, "orientation error (mrad)"),
     )
     for row, (values, label) in enumerate(rows):
+        shown = values[list(picks)]
+        lo, hi = float(np.min(shown)), float(np.max(shown))
+        bounds = np.linspace(lo, hi if hi > lo else lo + 1e-12, 16)
         for col, k in enumerate(picks):
             ax = axes[row, col]
-            # one colour scale per panel: the variation within a z level is what matters
-            filled = ax.contourf(v1, v2, values[k].T, levels=15, cmap="viridis")
+            filled = ax.contourf(v1, v2, values[k].T, levels=bounds, cmap="viridis")
+            # labelled contours of the panel itself: the variation within one z level
+            lines = ax.contour(v1, v2, values[k].T, levels=5, colors="white", linewidths=0.6)
+            ax.clabel(lines, fontsize=7, fmt="%.3g")
             ax.set_xlabel(f"{angle_map.axes[0]} (deg)")
             ax.set_ylabel(f"{angle_map.axes[1]} (deg)")
             ax.set_title(f"z = {angle_map.levels[k]:g} mm")
-            fig.colorbar(filled, ax=ax, label=label)
-    fig.suptitle(f"Pose error over {angle_map.axes[0]} and {angle_map.axes[1]}")
-    _save(fig, path)
+        fig.colorbar(filled, ax=axes[row, :], label=label)
+    fig.suptitle(
+        f"Mean pose error over {angle_map.axes[0]} and {angle_map.axes[1]} "
+        "(one colour scale per row, shared by the z levels)"
+    )
+    _note(fig, note)
+    return fig
 
 
 def plot_selection_study(
@@ -172,6 +292,7 @@ def plot_selection_study(
     empirical: dict[str, tuple[np.ndarray, np.ndarray]],
     path: str | os.PathLike[str],
     title: str = "",
+    note: str = "",
 ) -> None:
     """Mean parameter error against the number of measurement poses, per strategy.
 
@@ -183,19 +304,23 @@ def plot_selection_study(
         Predicted mean absolute parameter error (mm) per strategy (lines).
     empirical : dict of str to (ndarray, ndarray)
         Pose counts and Monte Carlo mean errors (markers), same keys.
+    note : str
+        The conditions (noise, trials; see :func:`conditions`), written below the figure.
     """
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
     for k, (label, values) in enumerate(predicted.items()):
         color = f"C{k}"
-        ax.plot(counts, values, "-", color=color, label=f"{label}: predicted")
+        ax.plot(counts, values, _STYLES[k % len(_STYLES)], color=color, label=f"{label}: predicted")
         if label in empirical:
             n, err = empirical[label]
-            ax.plot(n, err, "o", color=color, label=f"{label}: Monte Carlo")
+            marker = _MARKERS[k % len(_MARKERS)]
+            ax.plot(n, err, marker, color=color, mfc="none", label=f"{label}: Monte Carlo")
     ax.set_xlabel("number of measurement poses")
     ax.set_ylabel("mean absolute parameter error (mm)")
     ax.set_yscale("log")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    _legend_outside(ax)
     if title:
         ax.set_title(title)
+    _note(fig, note)
     _save(fig, path)

@@ -143,7 +143,9 @@ def singular_values(values: Sequence[float], threshold: float) -> Any:
     return fig
 
 
-def workspace_poses(poses: Any, box: Any | None = None) -> Any:
+def workspace_poses(
+    poses: Any, box: Any | None = None, title: str = "Measured poses in the workspace"
+) -> Any:
     """Measured poses: x–y position (colour z) and two angles (colour the third), in degrees."""
     p = np.asarray(poses, dtype=float).reshape(-1, 6)
     raster = len(p) > RASTER_POINTS
@@ -174,7 +176,7 @@ def workspace_poses(poses: Any, box: Any | None = None) -> Any:
         ax.set_ylabel(labels[1])
         fig.colorbar(dots, ax=ax, label=labels[2])
         ax.grid(True, alpha=0.3)
-    fig.suptitle(f"Measured poses in the workspace ({len(p)} poses)")
+    fig.suptitle(f"{title} ({len(p)} poses)")
     return fig
 
 

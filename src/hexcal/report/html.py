@@ -47,6 +47,8 @@ table.sortable th[aria-sort="descending"]::after { content: " \\25BC"; font-size
 .scroll { max-height: 32rem; overflow: auto; border: 1px solid var(--line); border-radius: 6px; }
 .figures { display: grid; grid-template-columns: repeat(auto-fit, minmax(520px, 1fr)); gap: 1rem; }
 figure { margin: 0; border: 1px solid var(--line); border-radius: 6px; padding: .5rem; background: #fff; }
+figure.wide { grid-column: 1 / -1; }
+table.kv td:last-child { text-align: left; overflow-wrap: anywhere; }
 figure svg { width: 100%; height: auto; display: block; }
 figcaption { color: var(--muted); font-size: .88rem; margin-top: .3rem; }
 code, .mono { font-family: ui-monospace, "SFMono-Regular", Menlo, monospace; font-size: .9em; }
@@ -147,7 +149,7 @@ def key_value_table(rows: Mapping[str, Any], digits: int = 6) -> str:
         f"<tr><td>{esc(k)}</td><td>{number(v, digits) if _numeric(v) else esc(v)}</td></tr>"
         for k, v in rows.items()
     )
-    return f"<table><tbody>{cells}</tbody></table>"
+    return f'<table class="kv"><tbody>{cells}</tbody></table>'
 
 
 def _numeric(value: Any) -> bool:
@@ -173,7 +175,7 @@ def data_table(
                 data = repr(v) if math.isfinite(v) else "NaN"
                 cells.append(f'<td data-value="{data}">{number(v, digits)}</td>')
             else:
-                cells.append(f"<td>{esc(value)}</td>")
+                cells.append(f"<td>{'-' if value is None else esc(value)}</td>")
         body.append(f"<tr>{''.join(cells)}</tr>")
     ident = f' id="{esc(table_id)}"' if table_id else ""
     kind = ' class="sortable"' if sortable else ""
@@ -189,8 +191,19 @@ def figure_grid(figures: Mapping[str, str], captions: Mapping[str, str] | None =
         cap = captions.get(name, "")
         caption = f"<figcaption>{esc(cap)}</figcaption>" if cap else ""
         body = _unique_ids(_strip_xml_header(svg), f"f{k}-")
-        items.append(f'<figure data-figure="{esc(name)}">{body}{caption}</figure>')
+        width, aspect = _size(body)
+        wide = ' class="wide"' if width > 640 and aspect > 1.6 else ""
+        items.append(f'<figure data-figure="{esc(name)}"{wide}>{body}{caption}</figure>')
     return f'<div class="figures">{"".join(items)}</div>'
+
+
+def _size(svg: str) -> tuple[float, float]:
+    """Width (pt) and width over height of an SVG (0, 0 if unknown): wide figures, which
+    would be unreadable at half the page, span the whole row of the grid."""
+    size = re.search(r'<svg[^>]*?\bwidth="([\d.]+)[a-z]*"[^>]*?\bheight="([\d.]+)', svg)
+    if size is None or float(size.group(2)) == 0:
+        return 0.0, 0.0
+    return float(size.group(1)), float(size.group(1)) / float(size.group(2))
 
 
 def _unique_ids(svg: str, prefix: str) -> str:

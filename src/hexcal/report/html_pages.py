@@ -14,6 +14,7 @@ True
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from typing import Any
 
@@ -38,8 +39,11 @@ IDENTIFICATION_CAPTIONS = {
     "singular_values": "Singular values of the column-normalised identification Jacobian, relative to "
     "the largest; the rank threshold is dashed.",
     "workspace": "Measured poses: positions x–y coloured by z (left) and angles a–b coloured by c "
-    "(right); dashed: the workspace box.",
+    "(right); dashed: the nominal workspace box (measured poses of a miscalibrated machine lie off it).",
 }
+
+#: At most this many rows in a per-pose table (the worst poses; a note says so).
+MAX_POSE_ROWS = 2000
 
 VALIDATION_CAPTIONS = {
     "pose_errors": "Position and orientation error of every held-out pose, nominal and calibrated geometry.",
@@ -154,9 +158,17 @@ def validation_page(report: Mapping[str, Any]) -> str:
             for k, pid in enumerate(first["ids"])
         ]
         cols = ["pose"] + [f"{name} {q}" for name in results for q in ("position (mm)", "orientation (rad)")]
-        sections.append(
-            section("Per pose", data_table(cols, per_pose, table_id="poses", scroll=True), "poses")
-        )
+        note = ""
+        if len(per_pose) > MAX_POSE_ROWS:
+            # a table of 10,000 rows slows the page down: keep the worst poses, say so
+            per_pose = sorted(per_pose, key=lambda row: -row[1])[:MAX_POSE_ROWS]
+            note = (
+                f'<p class="muted" id="poses-note">The {MAX_POSE_ROWS} poses with the largest '
+                f"{next(iter(results))} position error of {len(first['ids'])}; the full table: "
+                "<code>hexcal validate --out FILE</code>.</p>"
+            )
+        table = data_table(cols, per_pose, table_id="poses", scroll=True)
+        sections.append(section("Per pose", table + note, "poses"))
     figures = report.get("figures", {})
     if figures:
         sections.append(section("Figures", figure_grid(figures, VALIDATION_CAPTIONS), "figures"))
@@ -168,19 +180,30 @@ def tables_page(report: Mapping[str, Any]) -> str:
     """A page of tables and figures (``hexcal paper`` and ``hexcal simulate``).
 
     ``report["tables"]`` maps a title to ``{"columns": [...], "rows": [[...], ...]}``; an
-    optional ``report["text"]`` is shown preformatted (the command's text table).
+    optional ``report["text"]`` is shown preformatted (the command's text table, folded);
+    the figures come after the tables, or first with ``report["figures_first"]``.
     """
     sections = []
     for title, table in report.get("tables", {}).items():
-        sections.append(section(title, data_table(table["columns"], table["rows"], table_id=_slug(title))))
-    if report.get("text"):
-        sections.append(section("As printed", f'<pre class="mono">{esc(report["text"])}</pre>', "text"))
+        body = data_table(
+            table["columns"], table["rows"], table_id=_slug(title), scroll=len(table["rows"]) > 20
+        )
+        sections.append(
+            section(title, body + '<p class="muted">Click a column to sort.</p>', f"{_slug(title)}-section")
+        )
     figures = report.get("figures", {})
     if figures:
-        sections.append(section("Figures", figure_grid(figures, report.get("captions", {})), "figures"))
+        grid = section("Figures", figure_grid(figures, report.get("captions", {})), "figures")
+        sections.insert(0 if report.get("figures_first") else len(sections), grid)
+    if report.get("text"):
+        printed = (
+            "<details><summary>the command's text output</summary>"
+            f'<pre class="mono">{esc(report["text"])}</pre></details>'
+        )
+        sections.append(section("As printed", printed, "text"))
     sections.append(section("Inputs", inputs_table(report.get("inputs", {})), "inputs"))
     return html_page(report.get("title", "hexcal report"), sections, report.get("subtitle", ""))
 
 
 def _slug(text: str) -> str:
-    return "".join(c if c.isalnum() else "-" for c in text.lower()).strip("-")
+    return re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")
