@@ -84,18 +84,22 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         for v in levels
     }
     out = output_folder(args.out)
-    cells = run_study(
-        nominal,
-        true,
-        methods,
-        strategies,
-        counts,
-        noises,
-        args.trials,
-        args.seed,
-        jobs=args.jobs,
-        progress=Progress("identifications", args.quiet),
-    )
+    from hexcal.cli.study import executor_for
+
+    with executor_for(args.scheduler) as executor:
+        cells = run_study(
+            nominal,
+            true,
+            methods,
+            strategies,
+            counts,
+            noises,
+            args.trials,
+            args.seed,
+            jobs=args.jobs,
+            progress=Progress("identifications", args.quiet),
+            executor=executor,
+        )
     from hexcal.report import render
 
     rows = [c.row() for c in cells]
@@ -133,18 +137,22 @@ def cmd_paper(args: argparse.Namespace) -> None:
     )
     start = time.perf_counter()
     selected = optimal_poses(nominal, 15, noise, args.seed)
-    experiment = run_paper_experiment(
-        nominal,
-        true,
-        trials=args.trials,
-        rng=args.seed,
-        noise=noise,
-        method=args.method,
-        jobs=args.jobs,
-        progress=Progress("identifications", args.quiet),
-        extra_rows=(("boundary_ml", "boundary", "ml"), ("selected_ml", "selected", "ml")),
-        selected_poses=selected,
-    )
+    from hexcal.cli.study import executor_for
+
+    with executor_for(args.scheduler) as executor:
+        experiment = run_paper_experiment(
+            nominal,
+            true,
+            trials=args.trials,
+            rng=args.seed,
+            noise=noise,
+            method=args.method,
+            jobs=args.jobs,
+            progress=Progress("identifications", args.quiet),
+            extra_rows=(("boundary_ml", "boundary", "ml"), ("selected_ml", "selected", "ml")),
+            selected_poses=selected,
+            executor=executor,
+        )
     summary = experiment.to_dict(
         seed=args.seed,
         nominal=nominal.name or args.geometry,
@@ -197,6 +205,7 @@ def register(sub: Any) -> None:
     p.add_argument("--trials", type=int, default=100)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--jobs", type=int, default=None, help="processes (default: all cores)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="address of a Dask scheduler: run the trials there")
     p.add_argument("--out", help="folder for study.json, study.csv and study.png")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=cmd_simulate)
@@ -216,6 +225,7 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--jobs", type=int, default=None, help="processes for the identifications (default: all cores)"
     )
+    p.add_argument("--scheduler", metavar="ADDRESS", help="address of a Dask scheduler: run the trials there")
     p.add_argument("--out", help="folder for table1.json and the figures")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=cmd_paper)

@@ -14,6 +14,7 @@ __getattr__, __dir__, __all__ = attach(
     {
         "BatchDefinition": "identify",
         "CampaignData": "protocol",
+        "DaskExecutor": "dask_executor",
         "ChunkFunction": "runner",
         "Executor": "runner",
         "FixedStrategy": "study",
@@ -34,6 +35,7 @@ __getattr__, __dir__, __all__ = attach(
         "TrialSeeds": "protocol",
         "campaign_bounds": "identify",
         "chunk_indices": "runner",
+        "dask_executor": "dask_executor",
         "fixed_strategy": "study",
         "identify_batch": "identify",
         "identify_chunk": "identify",

@@ -98,7 +98,9 @@ def map_trials(
         Processes when no ``executor`` is given: 1 runs in this process, more use a
         :class:`~concurrent.futures.ProcessPoolExecutor` (``None``: all cores).
     executor : Executor, optional
-        Where to run the chunks (it is not shut down here).
+        Where to run the chunks (it is not shut down here); if it has a ``workers``
+        attribute (:class:`~hexcal.simulation.dask_executor.DaskExecutor`), the chunks are
+        sized by it instead of ``jobs``.
     chunk_size : int, optional
         Trials per chunk (default about four chunks per process, at most 50).
     progress : callable(done, total), optional
@@ -119,7 +121,9 @@ def map_trials(
     [1, 2, 5, 10, 17]
     """
     n_jobs = resolve_jobs(jobs)
-    chunks = chunk_indices(trials, n_jobs, chunk_size)
+    # an executor that knows its workers (a Dask cluster) sizes the chunks by them
+    workers = getattr(executor, "workers", None)
+    chunks = chunk_indices(trials, n_jobs if workers is None else int(workers), chunk_size)
     if executor is not None:
         return _collect(executor, fn, definition, chunks, trials, progress, weight)
     if n_jobs == 1 or len(chunks) == 1:
