@@ -46,7 +46,9 @@ def executor_for(address: str | None) -> Iterator[Any]:
     from hexcal.simulation.dask_executor import dask_executor
 
     with dask_executor(address) as executor:
-        print(f"running on the Dask cluster at {address} ({executor.workers} worker threads)", file=sys.stderr)
+        print(
+            f"running on the Dask cluster at {address} ({executor.workers} worker threads)", file=sys.stderr
+        )
         yield executor
 
 
@@ -116,7 +118,9 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--true", default="paper-hmt-true", help="the real machine, or 'random' (nominal + U(±5 mm))"
     )
-    p.add_argument("--poses", default="8,10,15,20,30,45,64", help="numbers of poses (8 to 64), comma-separated")
+    p.add_argument(
+        "--poses", default="8,10,15,20,30,45,64", help="numbers of poses (8 to 64), comma-separated"
+    )
     p.add_argument("--method", choices=("paper", "length", "ml"), default="length", help="the estimator")
     p.add_argument("--noise", help="noise half-widths, e.g. leg=0.01,pos=0.025,ang=0.001")
     p.add_argument("--noise-dist", choices=("uniform", "normal"), default="uniform")
