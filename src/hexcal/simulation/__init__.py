@@ -13,6 +13,7 @@ __getattr__, __dir__, __all__ = attach(
     __name__,
     {
         "BatchDefinition": "identify",
+        "CHUNKS": "runner",
         "CampaignData": "protocol",
         "DaskExecutor": "dask_executor",
         "ChunkFunction": "runner",
@@ -36,6 +37,7 @@ __getattr__, __dir__, __all__ = attach(
         "campaign_bounds": "identify",
         "chunk_indices": "runner",
         "dask_executor": "dask_executor",
+        "default_chunk_size": "runner",
         "fixed_strategy": "study",
         "identify_batch": "identify",
         "identify_chunk": "identify",

@@ -49,7 +49,7 @@ class DaskExecutor:
 
     @property
     def workers(self) -> int:
-        """Worker threads of the cluster now (at least 1), to size the chunks."""
+        """Worker threads of the cluster now (at least 1)."""
         try:
             return max(1, sum(self.client.nthreads().values()))
         except Exception:  # scheduler gone: the submits will say so

@@ -29,6 +29,9 @@ ChunkFunction = Callable[[Any, NDArray[np.intp]], Mapping[str, NDArray[Any]]]
 #: Most trials per chunk: small enough for frequent progress, large enough that the
 #: per-chunk overhead (pickling, batching) stays small.
 MAX_CHUNK = 50
+#: Chunks of a run by default (fewer trials per chunk when there are few trials): enough for
+#: load balance on a few cores and for progress lines.
+CHUNKS = 32
 
 
 class Executor(Protocol):
@@ -61,17 +64,35 @@ def resolve_jobs(jobs: int | None) -> int:
 
 
 def chunk_indices(trials: int, jobs: int = 1, chunk_size: int | None = None) -> list[NDArray[np.intp]]:
-    """Trial indices ``0 .. trials-1`` in chunks (default about four per process, at most 50).
+    """Trial indices ``0 .. trials-1`` in chunks (default :func:`default_chunk_size`).
+
+    ``jobs`` is accepted for compatibility and does not change the chunks: the trials of a
+    chunk are identified together, and the batched solver's last digits (about 1e-11 mm)
+    depend on which trials share a stack, so the chunks must not depend on where they run.
 
     Examples
     --------
     >>> [c.tolist() for c in chunk_indices(5, chunk_size=2)]
     [[0, 1], [2, 3], [4]]
     """
-    if chunk_size is None:
-        chunk_size = max(1, min(MAX_CHUNK, -(-trials // (4 * jobs))))
-    chunk_size = max(1, int(chunk_size))
+    del jobs
+    chunk_size = default_chunk_size(trials) if chunk_size is None else max(1, int(chunk_size))
     return [np.arange(i, min(i + chunk_size, trials)) for i in range(0, trials, chunk_size)]
+
+
+def default_chunk_size(trials: int) -> int:
+    """Trials per chunk: about :data:`CHUNKS` chunks, at most :data:`MAX_CHUNK` trials each.
+
+    A function of the number of trials only, never of the processes or the cluster: the
+    same chunks everywhere give bit-identical numbers locally, with any ``--jobs`` and on
+    any cluster.
+
+    Examples
+    --------
+    >>> default_chunk_size(5), default_chunk_size(1000), default_chunk_size(10**6)
+    (1, 32, 50)
+    """
+    return max(1, min(MAX_CHUNK, -(-int(trials) // CHUNKS)))
 
 
 def map_trials(
@@ -98,11 +119,11 @@ def map_trials(
         Processes when no ``executor`` is given: 1 runs in this process, more use a
         :class:`~concurrent.futures.ProcessPoolExecutor` (``None``: all cores).
     executor : Executor, optional
-        Where to run the chunks (it is not shut down here); if it has a ``workers``
-        attribute (:class:`~hexcal.simulation.dask_executor.DaskExecutor`), the chunks are
-        sized by it instead of ``jobs``.
+        Where to run the chunks (it is not shut down here).
     chunk_size : int, optional
-        Trials per chunk (default about four chunks per process, at most 50).
+        Trials per chunk (default :func:`default_chunk_size`, independent of ``jobs`` and
+        ``executor``; the trials of a chunk are identified together, so the last digits of
+        the batched maximum likelihood, about 1e-11 mm, depend on it).
     progress : callable(done, total), optional
         Called as chunks complete, in units of ``weight`` per trial.
     weight : int
@@ -121,9 +142,7 @@ def map_trials(
     [1, 2, 5, 10, 17]
     """
     n_jobs = resolve_jobs(jobs)
-    # an executor that knows its workers (a Dask cluster) sizes the chunks by them
-    workers = getattr(executor, "workers", None)
-    chunks = chunk_indices(trials, n_jobs if workers is None else int(workers), chunk_size)
+    chunks = chunk_indices(trials, chunk_size=chunk_size)  # the same wherever they run
     if executor is not None:
         return _collect(executor, fn, definition, chunks, trials, progress, weight)
     if n_jobs == 1 or len(chunks) == 1:
