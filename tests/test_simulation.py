@@ -279,7 +279,7 @@ def test_map_trials_reassembles_by_trial_index_whatever_the_completion_order():
     assert len(executor.calls) == 3
     assert calls == [(6, 18), (12, 18), (18, 18)]
     # the default chunks depend on the number of trials only, never on the processes
-    assert [len(c) for c in chunk_indices(201, jobs=2)] == [7] * 28 + [5]
+    assert [len(c) for c in chunk_indices(201, jobs=2)] == [13] * 15 + [6]
     assert [c.tolist() for c in chunk_indices(201, jobs=1)] == [
         c.tolist() for c in chunk_indices(201, jobs=8)
     ]

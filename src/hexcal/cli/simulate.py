@@ -84,22 +84,19 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         for v in levels
     }
     out = output_folder(args.out)
-    from hexcal.cli.study import executor_for
-
-    with executor_for(args.scheduler) as executor:
-        cells = run_study(
-            nominal,
-            true,
-            methods,
-            strategies,
-            counts,
-            noises,
-            args.trials,
-            args.seed,
-            jobs=args.jobs,
-            progress=Progress("identifications", args.quiet),
-            executor=executor,
-        )
+    cells = run_study(
+        nominal,
+        true,
+        methods,
+        strategies,
+        counts,
+        noises,
+        args.trials,
+        args.seed,
+        jobs=args.jobs,
+        progress=Progress("identifications", args.quiet),
+        executor=args.executor,
+    )
     from hexcal.report import render
 
     rows = [c.row() for c in cells]
@@ -137,22 +134,19 @@ def cmd_paper(args: argparse.Namespace) -> None:
     )
     start = time.perf_counter()
     selected = optimal_poses(nominal, 15, noise, args.seed)
-    from hexcal.cli.study import executor_for
-
-    with executor_for(args.scheduler) as executor:
-        experiment = run_paper_experiment(
-            nominal,
-            true,
-            trials=args.trials,
-            rng=args.seed,
-            noise=noise,
-            method=args.method,
-            jobs=args.jobs,
-            progress=Progress("identifications", args.quiet),
-            extra_rows=(("boundary_ml", "boundary", "ml"), ("selected_ml", "selected", "ml")),
-            selected_poses=selected,
-            executor=executor,
-        )
+    experiment = run_paper_experiment(
+        nominal,
+        true,
+        trials=args.trials,
+        rng=args.seed,
+        noise=noise,
+        method=args.method,
+        jobs=args.jobs,
+        progress=Progress("identifications", args.quiet),
+        extra_rows=(("boundary_ml", "boundary", "ml"), ("selected_ml", "selected", "ml")),
+        selected_poses=selected,
+        executor=args.executor,
+    )
     summary = experiment.to_dict(
         seed=args.seed,
         nominal=nominal.name or args.geometry,
@@ -185,6 +179,8 @@ def cmd_paper(args: argparse.Namespace) -> None:
 
 def register(sub: Any) -> None:
     """Add ``simulate`` and ``paper`` to the ``hexcal`` parser's subparsers."""
+    from hexcal.cli.study import SCHEDULER_HELP, with_scheduler
+
     p = sub.add_parser("simulate", help="Monte Carlo study of calibration campaigns")
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {GEOMETRY_HELP}")
     p.add_argument(
@@ -205,10 +201,10 @@ def register(sub: Any) -> None:
     p.add_argument("--trials", type=int, default=100)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--jobs", type=int, default=None, help="processes (default: all cores)")
-    p.add_argument("--scheduler", metavar="ADDRESS", help="address of a Dask scheduler: run the trials there")
+    p.add_argument("--scheduler", metavar="ADDRESS", help=SCHEDULER_HELP)
     p.add_argument("--out", help="folder for study.json, study.csv and study.png")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    p.set_defaults(func=cmd_simulate)
+    p.set_defaults(func=with_scheduler(cmd_simulate))
 
     p = sub.add_parser("paper", help="reproduce the seed paper's Table I by Monte Carlo")
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {GEOMETRY_HELP}")
@@ -225,7 +221,7 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--jobs", type=int, default=None, help="processes for the identifications (default: all cores)"
     )
-    p.add_argument("--scheduler", metavar="ADDRESS", help="address of a Dask scheduler: run the trials there")
+    p.add_argument("--scheduler", metavar="ADDRESS", help=SCHEDULER_HELP)
     p.add_argument("--out", help="folder for table1.json and the figures")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    p.set_defaults(func=cmd_paper)
+    p.set_defaults(func=with_scheduler(cmd_paper))

@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from hexcal.cli.common import (
@@ -52,6 +53,22 @@ def executor_for(address: str | None) -> Iterator[Any]:
         yield executor
 
 
+def with_scheduler(command: Callable[[argparse.Namespace], None]) -> Callable[[argparse.Namespace], None]:
+    """``command`` run with ``args.executor``, the executor of its ``--scheduler`` option.
+
+    The connection comes first (a bad address fails at once, before any work) and is
+    closed when the command ends, also on errors and Ctrl-C.
+    """
+
+    @functools.wraps(command)
+    def run(args: argparse.Namespace) -> None:
+        with executor_for(getattr(args, "scheduler", None)) as executor:
+            args.executor = executor
+            command(args)
+
+    return run
+
+
 def cmd_study_selection(args: argparse.Namespace) -> None:
     """Mean parameter error and bound of interior, corner and selected poses, per pose count."""
     from hexcal.simulation.selection import run_selection_study
@@ -65,19 +82,18 @@ def cmd_study_selection(args: argparse.Namespace) -> None:
     noise = parse_noise(args.noise, args.noise_dist)
     out = output_folder(args.out)
     start = time.perf_counter()
-    with executor_for(args.scheduler) as executor:
-        cells = run_selection_study(
-            nominal,
-            true,
-            noise,
-            args.trials,
-            args.seed,
-            counts,
-            args.method,
-            jobs=args.jobs,
-            progress=Progress("identifications", args.quiet),
-            executor=executor,
-        )
+    cells = run_selection_study(
+        nominal,
+        true,
+        noise,
+        args.trials,
+        args.seed,
+        counts,
+        args.method,
+        jobs=args.jobs,
+        progress=Progress("identifications", args.quiet),
+        executor=args.executor,
+    )
     from hexcal.report import render
 
     rows = [c.row() for c in cells]
@@ -130,4 +146,4 @@ def register(sub: Any) -> None:
     p.add_argument("--scheduler", metavar="ADDRESS", help=SCHEDULER_HELP)
     p.add_argument("--out", help="folder for selection.json, selection.csv and selection.png")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    p.set_defaults(func=cmd_study_selection)
+    p.set_defaults(func=with_scheduler(cmd_study_selection))

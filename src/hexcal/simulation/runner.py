@@ -26,12 +26,14 @@ Progress = Callable[[int, int], None]
 #: A chunk function ``(definition, trial indices) -> {name: array over those trials}``.
 ChunkFunction = Callable[[Any, NDArray[np.intp]], Mapping[str, NDArray[Any]]]
 
-#: Most trials per chunk: small enough for frequent progress, large enough that the
-#: per-chunk overhead (pickling, batching) stays small.
-MAX_CHUNK = 50
+#: Most trials per chunk: the trials of a chunk are identified together, and the batched
+#: solvers gain from larger stacks (measured: 100 trials per chunk take 30 % less CPU than
+#: 32 for ``hexcal paper``); small enough for frequent progress.
+MAX_CHUNK = 100
 #: Chunks of a run by default (fewer trials per chunk when there are few trials): enough for
-#: load balance on a few cores and for progress lines.
-CHUNKS = 32
+#: load balance on a few cores and for progress lines; large runs get more chunks of
+#: :data:`MAX_CHUNK` trials, to spread over a cluster.
+CHUNKS = 16
 
 
 class Executor(Protocol):
@@ -90,7 +92,7 @@ def default_chunk_size(trials: int) -> int:
     Examples
     --------
     >>> default_chunk_size(5), default_chunk_size(1000), default_chunk_size(10**6)
-    (1, 32, 50)
+    (1, 63, 100)
     """
     return max(1, min(MAX_CHUNK, -(-int(trials) // CHUNKS)))
 
