@@ -278,7 +278,11 @@ def test_map_trials_reassembles_by_trial_index_whatever_the_completion_order():
     assert_array_equal(out["pair"], np.stack([np.arange(9), -np.arange(9)], axis=1))
     assert len(executor.calls) == 3
     assert calls == [(6, 18), (12, 18), (18, 18)]
-    assert [len(c) for c in chunk_indices(201, jobs=2)] == [26] * 7 + [19]
+    # the default chunks depend on the number of trials only, never on the processes
+    assert [len(c) for c in chunk_indices(201, jobs=2)] == [13] * 15 + [6]
+    assert [c.tolist() for c in chunk_indices(201, jobs=1)] == [
+        c.tolist() for c in chunk_indices(201, jobs=8)
+    ]
     assert map_trials(_chunk_of_squares, 0, 0) == {}
     failed = SerialExecutor().submit(_chunk_of_squares, 0, "not an array")
     with pytest.raises(TypeError):
@@ -309,7 +313,8 @@ def test_paper_experiment_does_not_depend_on_chunks_or_processes(nominal):
     for options in ({"chunk_size": 1}, {"chunk_size": 2, "jobs": 2}, {"jobs": 2}):
         other = run_paper_experiment(nominal, None, **options, **kwargs)
         _assert_same_experiment(base, other)
-        assert_array_equal(other.extra["boundary_ml"], base.extra["boundary_ml"])
+        # maximum likelihood solves a chunk's trials together: other chunks, other last digits
+        np.testing.assert_allclose(other.extra["boundary_ml"], base.extra["boundary_ml"], rtol=0, atol=1e-9)
         for key, bound in base.bounds.items():
             assert_array_equal(other.bounds[key], bound)
 

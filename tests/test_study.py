@@ -198,7 +198,8 @@ def test_study_does_not_depend_on_chunks_or_processes(study):
         for a, b in zip(study, again, strict=True):
             assert (a.strategy, a.n_poses, a.noise, a.method) == (b.strategy, b.n_poses, b.noise, b.method)
             for name in ("errors", "bounds", "position_rms", "orientation_rms"):
-                np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+                # other chunks: maximum likelihood's last digits differ (trials solved together)
+                np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-9, err_msg=name)
             assert json.dumps(a.to_dict()) == json.dumps(a.row())  # NaN != NaN
     # the fixed strategy is picklable: it runs in worker processes too
     strategies = {"fixed": fixed_strategy(poses)}

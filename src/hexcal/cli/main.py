@@ -18,7 +18,7 @@ import warnings
 from collections.abc import Sequence
 from typing import Any
 
-from hexcal.cli import calibrate, kinematics, linuxcnc, plan, simulate
+from hexcal.cli import calibrate, kinematics, linuxcnc, plan, simulate, study
 from hexcal.errors import HexcalError
 
 
@@ -28,7 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="hexcal", description="Kinematic calibration of hexapods (Stewart-Gough platforms)."
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for group in (kinematics, calibrate, plan, simulate, linuxcnc):
+    for group in (kinematics, calibrate, plan, simulate, study, linuxcnc):
         group.register(sub)
     return parser
 

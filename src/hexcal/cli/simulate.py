@@ -125,6 +125,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         args.seed,
         jobs=args.jobs,
         progress=Progress("identifications", args.quiet),
+        executor=args.executor,
     )
     from hexcal.report import render
 
@@ -198,6 +199,7 @@ def cmd_paper(args: argparse.Namespace) -> None:
         progress=Progress("identifications", args.quiet),
         extra_rows=(("boundary_ml", "boundary", "ml"), ("selected_ml", "selected", "ml")),
         selected_poses=selected,
+        executor=args.executor,
     )
     summary = experiment.to_dict(
         seed=args.seed,
@@ -263,6 +265,8 @@ def _write_html(
 
 def register(sub: Any) -> None:
     """Add ``simulate`` and ``paper`` to the ``hexcal`` parser's subparsers."""
+    from hexcal.cli.study import SCHEDULER_HELP, with_scheduler
+
     p = sub.add_parser("simulate", help="Monte Carlo study of calibration campaigns")
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {GEOMETRY_HELP}")
     p.add_argument(
@@ -286,12 +290,13 @@ def register(sub: Any) -> None:
     p.add_argument("--trials", type=int, default=100)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--jobs", type=int, default=None, help="processes (default: all cores)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help=SCHEDULER_HELP)
     p.add_argument("--out", help="folder for study.json, study.csv and study.png")
     p.add_argument("--html", metavar="FILE", help="save a self-contained HTML report (table, figure, inputs)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--setup", metavar="FILE", help="true tracker setup YAML: campaigns with targets (ml)")
     p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
-    p.set_defaults(func=cmd_simulate)
+    p.set_defaults(func=with_scheduler(cmd_simulate))
 
     p = sub.add_parser("paper", help="reproduce the seed paper's Table I by Monte Carlo")
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {GEOMETRY_HELP}")
@@ -309,11 +314,12 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--jobs", type=int, default=None, help="processes for the identifications (default: all cores)"
     )
+    p.add_argument("--scheduler", metavar="ADDRESS", help=SCHEDULER_HELP)
     p.add_argument("--out", help="folder for table1.json and the figures")
     p.add_argument(
         "--html", metavar="FILE", help="save a self-contained HTML report (tables, figures, inputs)"
     )
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    p.set_defaults(func=cmd_paper)
+    p.set_defaults(func=with_scheduler(cmd_paper))
     for name in ("simulate", "paper"):
         show_defaults(sub.choices[name])

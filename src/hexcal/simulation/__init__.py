@@ -13,7 +13,9 @@ __getattr__, __dir__, __all__ = attach(
     __name__,
     {
         "BatchDefinition": "identify",
+        "CHUNKS": "runner",
         "CampaignData": "protocol",
+        "DaskExecutor": "dask_executor",
         "ChunkFunction": "runner",
         "Executor": "runner",
         "FixedStrategy": "study",
@@ -34,6 +36,8 @@ __getattr__, __dir__, __all__ = attach(
         "TrialSeeds": "protocol",
         "campaign_bounds": "identify",
         "chunk_indices": "runner",
+        "dask_executor": "dask_executor",
+        "default_chunk_size": "runner",
         "fixed_strategy": "study",
         "identify_batch": "identify",
         "identify_chunk": "identify",
