@@ -95,14 +95,14 @@ def register(sub: Any) -> None:
     p = sub.add_parser("preset", help="write a built-in geometry to a YAML file")
     p.add_argument("name", choices=sorted(PRESET_NAMES))
     p.add_argument("--out", required=True, help="YAML file to write")
-    p.set_defaults(func=cmd_preset)
+    p.set_defaults(func=cmd_preset, inputs=(), outputs=("out",), folders=())
 
     p = sub.add_parser("ik", help="inverse kinematics: leg lengths of poses")
     p.add_argument("--geometry", required=True, help=GEOMETRY_HELP)
     p.add_argument("--poses", required=True, help="pose CSV file")
     p.add_argument("--out", required=True, help="leg CSV file to write (l1..l6, dl1..dl6)")
     p.add_argument("--euler", help=EULER_HELP)
-    p.set_defaults(func=cmd_ik)
+    p.set_defaults(func=cmd_ik, inputs=("geometry", "poses"), outputs=("out",), folders=())
 
     p = sub.add_parser("fk", help="forward kinematics: poses of leg lengths or readings")
     p.add_argument("--geometry", required=True, help=GEOMETRY_HELP)
@@ -111,4 +111,4 @@ def register(sub: Any) -> None:
     p.add_argument("--guess", help="pose CSV file of starting poses (default: the home pose)")
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--tol", type=float, default=1e-9, help="leg length tolerance, mm")
-    p.set_defaults(func=cmd_fk)
+    p.set_defaults(func=cmd_fk, inputs=("geometry", "legs", "guess"), outputs=("out",), folders=())

@@ -205,7 +205,12 @@ def register(sub: Any) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--setup", metavar="FILE", help="true tracker setup YAML: campaigns with targets (ml)")
     p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
-    p.set_defaults(func=cmd_simulate)
+    p.set_defaults(
+        func=cmd_simulate,
+        inputs=("geometry", "true", "pose_covariance", "setup"),
+        outputs=(),
+        folders=("out",),
+    )
 
     p = sub.add_parser("paper", help="reproduce the seed paper's Table I by Monte Carlo")
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {GEOMETRY_HELP}")
@@ -224,4 +229,4 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--out", help="folder for table1.json and the figures")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    p.set_defaults(func=cmd_paper)
+    p.set_defaults(func=cmd_paper, inputs=("geometry", "true"), outputs=(), folders=("out",))

@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning
-from hexcal.io.inputs import DEFAULT_MAX_ROWS, open_input, read_text, too_many_rows
+from hexcal.io.inputs import DEFAULT_MAX_ROWS, open_input, read_text, row_limit, too_many_rows
 
 #: Rows converted (or read, by :func:`iter_tables`) at a time.
 BLOCK_ROWS = 16_384
@@ -367,6 +367,7 @@ def read_table(path: str | os.PathLike[str], max_rows: int | None = DEFAULT_MAX_
         More data rows are refused (naming the limit and ``--max-rows``) before they are
         converted; ``None``: no limit.
     """
+    max_rows = row_limit(max_rows)
     scanner = _Scanner(path)
     records: list[str] = []
     lines: list[int] = []
