@@ -20,16 +20,7 @@ import warnings
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
-from hexcal.cli import calibrate, kinematics, linuxcnc, plan, simulate
-from hexcal.cli.safety import (
-    USAGE_STATUS,
-    check_options,
-    command_outputs,
-    error_line,
-    install_signals,
-    restore_signals,
-    signal_exit,
-)
+from hexcal.cli import calibrate, kinematics, linuxcnc, plan, safety, simulate
 from hexcal.errors import HexcalError
 
 #: Commands that read a whole table take ``--max-rows`` (default limits in the help).
@@ -37,7 +28,7 @@ MAX_ROWS_COMMANDS = ("identify", "ik", "fk", "validate", "compensate")
 
 EPILOG = (
     "Exit status: 0 success; 1 error (one line 'hexcal: error: ...', no output written); "
-    f"{USAGE_STATUS} usage error (a malformed command line); 130 interrupted (SIGINT); "
+    f"{safety.USAGE_STATUS} usage error (a malformed command line); 130 interrupted (SIGINT); "
     "143 terminated (SIGTERM)."
 )
 
@@ -52,7 +43,7 @@ class Parser(argparse.ArgumentParser):
             else f"hexcal: error: {message}",
             file=sys.stderr,
         )
-        sys.exit(USAGE_STATUS)
+        sys.exit(safety.USAGE_STATUS)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -82,14 +73,14 @@ def _show_warning(message: Any, category: Any, *_args: Any, **_kw: Any) -> None:
 
 def _run(args: argparse.Namespace) -> None:
     """Check the options, then run the command inside its output set (all or nothing)."""
-    check_options(args)
+    safety.check_options(args)
     token = None
     if getattr(args, "max_rows", None) is not None:
         from hexcal.io.inputs import ROW_LIMIT
 
         token = ROW_LIMIT.set(args.max_rows)
     try:
-        with command_outputs(args):
+        with safety.command_outputs(args):
             args.func(args)
     finally:
         if token is not None:
@@ -102,23 +93,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     >>> main(["ik", "--geometry", "paper-hmt", "--poses", "missing.csv", "--out", "legs.csv"])
     1
     """
-    old_signals = install_signals()
+    old_signals = safety.install_signals()
     console = argv is None
     old = warnings.showwarning
     try:
-        with warnings.catch_warnings():
-            warnings.showwarning = _show_warning
-            # floating-point warnings of numpy ("overflow encountered in ..."): the results
-            # are checked for finite values where they matter; the warning would only confuse
-            warnings.filterwarnings("ignore", message=r".*encountered in", category=RuntimeWarning)
-            args = build_parser().parse_args(argv)
-            _run(args)
+        warnings.showwarning = _show_warning
+        # floating-point warnings of numpy ("overflow encountered in ..."): the results are
+        # checked for finite values where they matter; the warning would only confuse
+        warnings.filterwarnings("ignore", message=r".*encountered in", category=RuntimeWarning)
+        args = build_parser().parse_args(argv)
+        _run(args)
     except BrokenPipeError:  # output piped into `head`: not an error of hexcal's
         with contextlib.suppress(OSError):
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except KeyboardInterrupt as exc:  # SIGINT, or SIGTERM (Terminated)
-        status, line = signal_exit(exc)
+        status, line = safety.signal_exit(exc)
         with contextlib.suppress(Exception):
             print(line, file=sys.stderr, flush=True)
         if console:  # skip the interpreter's exit (pool threads): the clean-up is done
@@ -129,9 +119,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     # ValueError: the library's remaining plain ValueErrors (numpy's LinAlgError is one);
     # OSError: files; MemoryError: a size the limits did not foresee
     except (HexcalError, ValueError, OSError, MemoryError, RecursionError) as exc:
-        print(error_line(exc), file=sys.stderr)
+        print(safety.error_line(exc), file=sys.stderr)
         return 1
     finally:
         warnings.showwarning = old
-        restore_signals(old_signals)
+        safety.restore_signals(old_signals)
     return 0
