@@ -100,7 +100,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         warnings.showwarning = _show_warning
         # floating-point warnings of numpy ("overflow encountered in ..."): the results are
         # checked for finite values where they matter; the warning would only confuse
-        warnings.filterwarnings("ignore", message=r".*encountered in", category=RuntimeWarning)
+        if not any(f[0] == "ignore" and f[2] is RuntimeWarning for f in warnings.filters):
+            # (added once: changing the filters would show every warning again)
+            warnings.filterwarnings("ignore", message=r".*encountered in", category=RuntimeWarning)
         args = build_parser().parse_args(argv)
         _run(args)
     except BrokenPipeError:  # output piped into `head`: not an error of hexcal's
