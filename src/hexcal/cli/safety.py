@@ -44,6 +44,10 @@ COUNT_OPTIONS = ("trials", "n", "draws", "levels", "grid", "points", "max_rows")
 #: (a 6 x 42 Jacobian block per candidate, plus the poses).
 CANDIDATE_BYTES = {"candidates": 200, "select": 2400}
 
+#: The loosest ``fk --tol`` (mm): a pose solving the legs to worse than a micrometre is not
+#: a solution.
+FK_MAX_TOL = 1e-3
+
 #: Exit status of a usage error (a malformed command line: unknown option, missing value,
 #: a value of the wrong type); every other error exits 1, a signal 130 (SIGINT) or 143
 #: (SIGTERM).
@@ -126,6 +130,12 @@ def check_options(args: argparse.Namespace) -> None:
         value = values.get(dest)
         if isinstance(value, float) and not (math.isfinite(value) and value > 0):
             raise CommandError(f"{_option(dest)}: must be a finite positive number, got {value:g}")
+    tol = values.get("tol")
+    if values.get("command") == "fk" and isinstance(tol, float) and tol > FK_MAX_TOL:
+        raise CommandError(
+            f"--tol: at most {FK_MAX_TOL:g} mm, got {tol:g} (a looser tolerance accepts poses "
+            "that do not match the legs)"
+        )
     missing = values.get("missing_rate")
     if isinstance(missing, float) and not 0 <= missing < 1:
         raise CommandError(f"--missing-rate: must be in [0, 1), got {missing:g}")
