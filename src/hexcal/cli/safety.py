@@ -44,6 +44,9 @@ COUNT_OPTIONS = ("trials", "n", "draws", "levels", "grid", "points", "max_rows")
 #: (a 6 x 42 Jacobian block per candidate, plus the poses).
 CANDIDATE_BYTES = {"candidates": 200, "select": 2400}
 
+#: Fewest poses of a simulated campaign: 42 kinematic parameters, 6 leg equations per pose.
+SIMULATE_MIN_POSES = 7
+
 #: The loosest ``fk --tol`` (mm): a pose solving the legs to worse than a micrometre is not
 #: a solution.
 FK_MAX_TOL = 1e-3
@@ -136,6 +139,14 @@ def check_options(args: argparse.Namespace) -> None:
             f"--tol: at most {FK_MAX_TOL:g} mm, got {tol:g} (a looser tolerance accepts poses "
             "that do not match the legs)"
         )
+    poses = values.get("poses")
+    if values.get("command") == "simulate" and isinstance(poses, str):
+        counts = [int(t) for t in poses.replace(" ", "").split(",") if t.lstrip("-").isdigit()]
+        if counts and min(counts) < SIMULATE_MIN_POSES:
+            raise CommandError(
+                f"--poses: at least {SIMULATE_MIN_POSES} poses per campaign (42 parameters, 6 "
+                f"equations per pose), got {min(counts)}"
+            )
     missing = values.get("missing_rate")
     if isinstance(missing, float) and not 0 <= missing < 1:
         raise CommandError(f"--missing-rate: must be in [0, 1), got {missing:g}")
