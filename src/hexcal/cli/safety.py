@@ -200,10 +200,14 @@ def _names(args: argparse.Namespace, attr: str) -> list[str]:
 @contextlib.contextmanager
 def command_outputs(args: argparse.Namespace) -> Iterator[Any]:
     """The command's output set: checked now, active and capturing stdout while it runs."""
-    from hexcal.io import OutputSet
+    from hexcal.io import OutputSet, check_input
 
     real = sys.stdout
-    outputs = OutputSet(_names(args, "outputs"), inputs=_names(args, "inputs"), stdout=real)
+    inputs = _names(args, "inputs")
+    for name in inputs:  # FIFOs and devices refused at once, whichever reader comes later
+        if os.path.lexists(name):
+            check_input(name)
+    outputs = OutputSet(_names(args, "outputs"), inputs=inputs, stdout=real)
     for folder in _names(args, "folders"):
         outputs.folder(folder)
     with outputs:
