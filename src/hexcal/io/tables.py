@@ -364,9 +364,8 @@ def read_table(path: str | os.PathLike[str], max_rows: int | None = DEFAULT_MAX_
     path : str or path-like
         A regular file.
     max_rows : int or None
-        More data rows are refused (naming the limit and ``--max-rows``) before they are
-        converted; ``None``: no limit.
-    """
+        More rows are refused before they are converted (``None``: no limit; ``--max-rows``
+        replaces it, :func:`~hexcal.io.inputs.row_limit`)."""
     max_rows = row_limit(max_rows)
     scanner = _Scanner(path)
     records: list[str] = []
