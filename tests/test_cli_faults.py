@@ -452,3 +452,36 @@ def test_sigint_during_start_up_prints_no_traceback(tmp_path, delay):
     assert proc.returncode in (0, 130, -signal.SIGINT)
     if proc.returncode != 0:
         assert not (tmp_path / "g.yaml").exists()
+
+
+def test_zero_noise_is_said_and_negative_seeds_are_named(capsys, work, monkeypatch):
+    monkeypatch.chdir(work)
+    status, _, err = run(
+        capsys,
+        "identify",
+        "--geometry",
+        "g.yaml",
+        "--data",
+        "m.csv",
+        "--out",
+        "z.yaml",
+        "--noise",
+        "leg=0,pos=0,ang=0",
+    )
+    assert "--noise is zero" in err
+    line = refused(
+        capsys,
+        work,
+        "synthesize",
+        "--nominal",
+        "g.yaml",
+        "--true",
+        "paper-hmt-true",
+        "--poses",
+        "p.csv",
+        "--out",
+        "q.csv",
+        "--seed",
+        "-1",
+    )
+    assert "--seed" in line

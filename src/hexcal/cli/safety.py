@@ -44,6 +44,9 @@ COUNT_OPTIONS = ("trials", "n", "draws", "levels", "grid", "points", "max_rows")
 #: (a 6 x 42 Jacobian block per candidate, plus the poses).
 CANDIDATE_BYTES = {"candidates": 200, "select": 2400}
 
+#: Commands whose reports carry a Cramér-Rao bound (0 when the noise is 0: said so).
+BOUND_COMMANDS = ("identify", "observability", "select", "simulate", "paper")
+
 #: Fewest poses of a simulated campaign: 42 kinematic parameters, 6 leg equations per pose.
 SIMULATE_MIN_POSES = 7
 
@@ -133,6 +136,19 @@ def check_options(args: argparse.Namespace) -> None:
         value = values.get(dest)
         if isinstance(value, float) and not (math.isfinite(value) and value > 0):
             raise CommandError(f"{_option(dest)}: must be a finite positive number, got {value:g}")
+    seed = values.get("seed")
+    if isinstance(seed, int) and seed < 0:
+        raise CommandError(f"--seed: must be a non-negative integer, got {seed}")
+    noise = values.get("noise")
+    if isinstance(noise, str) and "=" in noise and values.get("command") in BOUND_COMMANDS:
+        numbers = [v.partition("=")[2].strip() for v in noise.split(",")]
+        with contextlib.suppress(ValueError):
+            if all(float(v) == 0 for v in numbers):
+                print(
+                    "hexcal: warning: --noise is zero: every predicted bound and standard deviation "
+                    "below is 0 by construction, not a measured accuracy",
+                    file=sys.stderr,
+                )
     tol = values.get("tol")
     if values.get("command") == "fk" and isinstance(tol, float) and tol > FK_MAX_TOL:
         raise CommandError(
