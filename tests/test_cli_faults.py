@@ -456,7 +456,7 @@ def test_sigint_during_start_up_prints_no_traceback(tmp_path, delay):
 
 def test_zero_noise_is_said_and_negative_seeds_are_named(capsys, work, monkeypatch):
     monkeypatch.chdir(work)
-    status, _, err = run(
+    _status, _, err = run(
         capsys,
         "identify",
         "--geometry",
