@@ -305,6 +305,8 @@ def test_output_folders_are_checked_before_the_computation(capsys, work, monkeyp
     ("argv", "words"),
     [
         (["paper", "--trials", "0"], "--trials"),
+        (["paper", "--trials", "1000000000"], "--trials"),
+        (["simulate", "--trials", "1000000000"], "--trials"),
         (["simulate", "--trials", "-1"], "--trials"),
         (["simulate", "--jobs", "-3"], "--jobs"),
         (["select", "--geometry", "g.yaml", "--n", "0", "--out", "s.csv"], "--n"),

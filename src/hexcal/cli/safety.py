@@ -47,6 +47,10 @@ CANDIDATE_BYTES = {"candidates": 200, "select": 2400}
 #: Commands whose reports carry a Cramér-Rao bound (0 when the noise is 0: said so).
 BOUND_COMMANDS = ("identify", "observability", "select", "simulate", "paper")
 
+#: Bytes kept per simulated trial and campaign kind (parameter errors, bounds and pose errors
+#: of each method: a few hundred numbers).
+TRIAL_BYTES = 2048
+
 #: Fewest poses of a simulated campaign: 42 kinematic parameters, 6 leg equations per pose.
 SIMULATE_MIN_POSES = 7
 
@@ -173,6 +177,13 @@ def check_options(args: argparse.Namespace) -> None:
         )
         option = "--grid" if (values.get("grid") or 1) ** 2 >= points else "--levels/--points"
         _budget(option, 48 * 4 * draws * points, "the error maps")
+    trials = values.get("trials")
+    if isinstance(trials, int) and values.get("command") in ("paper", "simulate"):
+        cells = 1
+        for dest in ("poses", "methods", "strategies", "noise_levels"):
+            if isinstance(values.get(dest), str):
+                cells *= len([t for t in values[dest].split(",") if t.strip()]) or 1
+        _budget("--trials", TRIAL_BYTES * trials * cells, f"{trials:,} trials of {cells} campaign kind(s)")
     spec = values.get("candidates")
     if isinstance(spec, str) and values.get("command") in CANDIDATE_BYTES:
         count = _candidate_count(spec)
