@@ -110,7 +110,7 @@ class OutputSet:
     >>> OutputSet([folder / "a.txt"], inputs=[folder / "a.txt"]).check()  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    hexcal.io.outputs.OutputError: .../a.txt: this output is also an input; choose another name
+    hexcal.io.output_checks.OutputError: .../a.txt: this output is also an input; choose another name
     """
 
     def __init__(
