@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from hexcal.io import read_poses
+
 SRC = Path(__file__).resolve().parents[1] / "src"
 ENV = {**os.environ, "PYTHONPATH": str(SRC)}
 HEXCAL = [sys.executable, "-m", "hexcal"]
@@ -56,7 +58,7 @@ def main() -> None:
         base, _ = timed(["preset", "paper-hmt", "--out", "g.yaml"], d)
         spec = ["candidates", "--geometry", "g.yaml", "--candidates", "random:50", "--out", "p.csv"]
         subprocess.run(HEXCAL + spec, cwd=d, env=ENV, check=True, stdout=subprocess.DEVNULL)
-        poses = np.loadtxt(d / "p.csv", delimiter=",", skiprows=1, usecols=range(1, 7))
+        poses, _ = read_poses(d / "p.csv", "XYZ")
         big = poses[np.random.default_rng(0).integers(0, len(poses), rows)]
         with (d / "big.csv").open("w") as fh:
             fh.write("id,x,y,z,a,b,c\n")
