@@ -24,6 +24,7 @@ array([  0.,   0., 800.,   0.,   0.,   0.])
 """
 
 import os as _os
+import sys as _sys
 
 # hexcal's linear algebra is many small matrices (6x6 blocks, 90x42 Jacobians), for which
 # OpenBLAS's threads cost far more than they give: on a busy 2-core machine one 15-pose
@@ -31,6 +32,20 @@ import os as _os
 # setting wins, and it has no effect if numpy was imported before hexcal.
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
+
+if _sys.argv[:1] == ["-m"] or _os.path.basename(_sys.argv[0] if _sys.argv else "") == "hexcal":
+    # started as the command (``python -m hexcal`` or the ``hexcal`` script): an interrupt
+    # during the start-up ends with one line, no traceback (``main`` installs the handlers
+    # that clean up once a command runs)
+    import signal as _signal
+
+    def _startup_signal(signum: int, _frame: object) -> None:
+        word = "terminated" if signum == _signal.SIGTERM else "interrupted"
+        _os.write(2, f"hexcal: {word}\n".encode())
+        _os._exit(128 + signum)
+
+    for _sig in (_signal.SIGINT, _signal.SIGTERM):
+        _signal.signal(_sig, _startup_signal)
 
 from hexcal._lazy import attach  # noqa: E402
 

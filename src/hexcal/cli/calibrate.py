@@ -293,7 +293,12 @@ def register(sub: Any) -> None:
     p.add_argument("--setup-out", metavar="FILE", help="with --setup: calibrated setup YAML to write")
     p.add_argument("--delimiter", choices=(",", ";", "tab"), help="export field separator (default: sniffed)")
     p.add_argument("--decimal", choices=(".", ","), help="export decimal mark (default: detected)")
-    p.set_defaults(func=cmd_identify)
+    p.set_defaults(
+        func=cmd_identify,
+        inputs=("geometry", "data", "pose_covariance", "setup"),
+        outputs=("out", "report", "json", "html", "setup_out"),
+        folders=(),
+    )
 
     p = sub.add_parser("validate", help="pose errors of a geometry on held-out measurements")
     p.add_argument("--geometry", required=True, help=f"calibrated {GEOMETRY_HELP}")
@@ -305,7 +310,12 @@ def register(sub: Any) -> None:
     p.add_argument("--setup", metavar="FILE", help="calibrated setup YAML: --data is an instrument export")
     p.add_argument("--delimiter", choices=(",", ";", "tab"), help="export field separator (default: sniffed)")
     p.add_argument("--decimal", choices=(".", ","), help="export decimal mark (default: detected)")
-    p.set_defaults(func=cmd_validate)
+    p.set_defaults(
+        func=cmd_validate,
+        inputs=("geometry", "data", "nominal", "setup"),
+        outputs=("out", "html"),
+        folders=(),
+    )
 
     p = sub.add_parser("compensate", help="leg commands that bring the real machine to targets")
     p.add_argument("--geometry", required=True, help=f"calibrated {GEOMETRY_HELP}")
@@ -315,7 +325,12 @@ def register(sub: Any) -> None:
     p.add_argument("--corrected-poses", help="pose CSV file of corrected targets for the nominal controller")
     p.add_argument("--skip-infeasible", action="store_true", help="write the feasible targets only")
     p.add_argument("--euler", help=EULER_HELP)
-    p.set_defaults(func=cmd_compensate)
+    p.set_defaults(
+        func=cmd_compensate,
+        inputs=("geometry", "poses", "nominal"),
+        outputs=("out", "corrected_poses"),
+        folders=(),
+    )
 
     p = sub.add_parser("synthesize", help="simulate a measurement file of a known machine (for rehearsal)")
     p.add_argument("--nominal", required=True, help=f"the controller's {GEOMETRY_HELP}")
@@ -329,6 +344,8 @@ def register(sub: Any) -> None:
     p.add_argument("--euler", help="Euler sequence of the angles (default: the nominal geometry's)")
     p.add_argument("--setup", metavar="FILE", help="true instrument setup YAML: write an instrument export")
     p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
-    p.set_defaults(func=cmd_synthesize)
+    p.set_defaults(
+        func=cmd_synthesize, inputs=("nominal", "true", "poses", "setup"), outputs=("out",), folders=()
+    )
     for name in ("identify", "validate", "compensate", "synthesize"):
         show_defaults(sub.choices[name])

@@ -30,70 +30,102 @@ def cmd_preset(args: argparse.Namespace) -> None:
 
 
 def cmd_ik(args: argparse.Namespace) -> None:
-    """Leg lengths and readings of the poses of a file; warns of poses beyond the leg limits."""
+    """Leg lengths and readings of the poses of a file, block by block (bounded memory).
+
+    Warns of poses beyond the leg limits; ``--out -`` writes the table to standard output.
+    """
     import numpy as np
 
     from hexcal.core import inverse_kinematics, is_feasible, leg_readings
-    from hexcal.io import read_poses, write_legs
+    from hexcal.io import LEG_LENGTH_COLUMNS, LEG_READING_COLUMNS, iter_poses, write_table_blocks
 
     geometry = load_geometry(args.geometry, args.euler)
-    poses, ids = read_poses(args.poses, geometry.euler)
-    lengths = inverse_kinematics(geometry, poses)
-    feasible = is_feasible(geometry, poses, margin=1e-6)
-    if not feasible.all():
-        bad = [ids[k] for k in np.flatnonzero(~feasible)]
-        warn(f"hexcal: warning: {len(bad)} pose(s) outside the leg length limits: {id_list(bad)}")
-    write_legs(args.out, lengths, leg_readings(geometry, lengths), ids)
-    print(f"wrote leg lengths of {len(ids)} pose(s) to {args.out}")
+    bad: list[str] = []
+    outside = 0
+
+    def blocks() -> Any:
+        nonlocal outside
+        for poses, ids in iter_poses(args.poses, geometry.euler):
+            lengths = inverse_kinematics(geometry, poses)
+            feasible = is_feasible(geometry, poses, margin=1e-6)
+            if not feasible.all():
+                rows = np.flatnonzero(~feasible)
+                outside += rows.size
+                bad.extend(ids[k] for k in rows[: max(0, 21 - len(bad))])
+            yield np.concatenate([lengths, leg_readings(geometry, lengths)], axis=1), ids
+
+    rows = write_table_blocks(args.out, LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS, blocks())
+    if outside:
+        more = f" and {outside - len(bad)} more" if outside > len(bad) else ""
+        warn(f"hexcal: warning: {outside} pose(s) outside the leg length limits: {', '.join(bad)}{more}")
+    if args.out != "-":
+        print(f"wrote leg lengths of {rows} pose(s) to {args.out}")
 
 
 def cmd_fk(args: argparse.Namespace) -> None:
-    """Poses of the leg lengths (or readings) of a file, by forward kinematics."""
+    """Poses of the leg lengths (or readings) of a file, by forward kinematics, block by block."""
     import numpy as np
 
     from hexcal.core import forward_kinematics, leg_lengths, leg_limit_violations
-    from hexcal.io import read_legs, read_poses, write_poses
+    from hexcal.io import iter_legs, iter_poses, write_table_blocks
 
     geometry = load_geometry(args.geometry, args.euler)
-    legs = read_legs(args.legs)
-    if legs.readings is not None:  # the controller's readings, through the geometry's l0 and gains
-        if legs.lengths is not None:
-            warn(f"hexcal: {args.legs} has both l and dl columns: using dl (the controller's readings)")
-        lengths = leg_lengths(geometry, legs.readings)
-    else:
-        lengths = legs.lengths
-    short, long = leg_limit_violations(geometry, lengths)
-    outside = np.flatnonzero(short | long)
-    if outside.size:
-        lo, hi = geometry.leg_length_limits
-        bad = [legs.ids[k] for k in outside]
-        raise CommandError(
-            f"{args.legs}: {len(bad)} row(s) outside the leg length limits "
-            f"[{lo:g}, {hi:g}] mm (ids {id_list(bad)})"
-        )
-    if args.guess:
-        guess, _ = read_poses(args.guess, geometry.euler)
-        if len(guess) != len(lengths):
-            raise CommandError(
-                f"{args.guess}: {len(guess)} guess poses for {len(lengths)} rows of {args.legs}"
-            )
-    elif geometry.home_pose is not None:
-        guess = geometry.home_pose
-    else:
+    if not args.guess and geometry.home_pose is None:
         raise CommandError("the geometry has no home_pose: give starting poses with --guess")
-    result = forward_kinematics(geometry, lengths, guess=guess, tol=args.tol)
-    if not result.all_converged:
-        bad = [legs.ids[k] for k in np.flatnonzero(~result.converged)]
-        raise CommandError(
-            f"forward kinematics did not converge for {len(bad)} row(s) of {args.legs} "
-            f"(ids {id_list(bad)}): leg lengths "
-            "out of reach, or start too far (try --guess)"
+    guesses = iter_poses(args.guess, geometry.euler) if args.guess else None
+    stats = {"rows": 0, "residual": 0.0, "iterations": 0}
+
+    def blocks() -> Any:
+        pending = np.empty((0, 6))
+        warned = False
+        for legs in iter_legs(args.legs):
+            if legs.readings is not None:  # the controller's readings, through l0 and the gains
+                if legs.lengths is not None and not warned:
+                    warn(
+                        f"hexcal: {args.legs} has both l and dl columns: using dl (the controller's readings)"
+                    )
+                    warned = True
+                lengths = leg_lengths(geometry, legs.readings)
+            else:
+                lengths = legs.lengths
+            short, long = leg_limit_violations(geometry, lengths)
+            outside = np.flatnonzero(short | long)
+            if outside.size:
+                lo, hi = geometry.leg_length_limits
+                raise CommandError(
+                    f"{args.legs}: row(s) outside the leg length limits [{lo:g}, {hi:g}] mm "
+                    f"(ids {id_list([legs.ids[k] for k in outside])})"
+                )
+            if guesses is None:
+                guess = geometry.home_pose
+            else:
+                while len(pending) < len(lengths):
+                    more = next(guesses, None)
+                    if more is None:
+                        raise CommandError(f"{args.guess}: fewer guess poses than rows of {args.legs}")
+                    pending = np.concatenate([pending, more[0]])
+                guess, pending = pending[: len(lengths)], pending[len(lengths) :]
+            result = forward_kinematics(geometry, lengths, guess=guess, tol=args.tol)
+            if not result.all_converged:
+                bad = [legs.ids[k] for k in np.flatnonzero(~result.converged)]
+                raise CommandError(
+                    f"forward kinematics did not converge within --tol {args.tol:g} mm for "
+                    f"row(s) of {args.legs} (ids {id_list(bad)}): leg lengths out of reach, "
+                    "or start too far (try --guess)"
+                )
+            stats["rows"] += len(lengths)
+            stats["residual"] = max(stats["residual"], float(result.residual.max()))
+            stats["iterations"] = max(stats["iterations"], int(result.iterations.max()))
+            yield result.poses, legs.ids
+        if guesses is not None and (len(pending) or next(guesses, None) is not None):
+            raise CommandError(f"{args.guess}: more guess poses than rows of {args.legs}")
+
+    write_table_blocks(args.out, ("x", "y", "z", "a", "b", "c"), blocks())
+    if args.out != "-":
+        print(
+            f"wrote {stats['rows']} pose(s) to {args.out} (max leg residual "
+            f"{stats['residual']:.1e} mm, at most {stats['iterations']} iterations)"
         )
-    write_poses(args.out, result.poses, legs.ids)
-    print(
-        f"wrote {len(legs.ids)} pose(s) to {args.out} (max leg residual "
-        f"{result.residual.max():.1e} mm, at most {result.iterations.max()} iterations)"
-    )
 
 
 def register(sub: Any) -> None:
@@ -101,14 +133,14 @@ def register(sub: Any) -> None:
     p = sub.add_parser("preset", help="write a built-in geometry to a YAML file")
     p.add_argument("name", choices=sorted(PRESET_NAMES))
     p.add_argument("--out", required=True, help="YAML file to write")
-    p.set_defaults(func=cmd_preset)
+    p.set_defaults(func=cmd_preset, inputs=(), outputs=("out",), folders=())
 
     p = sub.add_parser("ik", help="inverse kinematics: leg lengths of poses")
     p.add_argument("--geometry", required=True, help=GEOMETRY_HELP)
     p.add_argument("--poses", required=True, help="pose CSV file")
-    p.add_argument("--out", required=True, help="leg CSV file to write (l1..l6, dl1..dl6)")
+    p.add_argument("--out", required=True, help="leg CSV file to write (l1..l6, dl1..dl6; - for stdout)")
     p.add_argument("--euler", help=EULER_HELP)
-    p.set_defaults(func=cmd_ik)
+    p.set_defaults(func=cmd_ik, inputs=("geometry", "poses"), outputs=("out",), folders=())
 
     p = sub.add_parser("fk", help="forward kinematics: poses of leg lengths or readings")
     p.add_argument("--geometry", required=True, help=GEOMETRY_HELP)
@@ -117,10 +149,10 @@ def register(sub: Any) -> None:
         required=True,
         help="leg CSV file (l1..l6 or dl1..dl6 in mm; dl is used when both are given)",
     )
-    p.add_argument("--out", required=True, help="pose CSV file to write")
+    p.add_argument("--out", required=True, help="pose CSV file to write; - for standard output")
     p.add_argument("--guess", help="pose CSV file of starting poses (default: the home pose)")
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--tol", type=float, default=1e-9, help="leg length tolerance, mm")
-    p.set_defaults(func=cmd_fk)
+    p.set_defaults(func=cmd_fk, inputs=("geometry", "legs", "guess"), outputs=("out",), folders=())
     for name in ("preset", "ik", "fk"):
         show_defaults(sub.choices[name])

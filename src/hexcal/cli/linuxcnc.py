@@ -30,7 +30,7 @@ def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
     p.add_argument(
         "--out", required=True, help="folder for hexcal-kins.hal and hexcal-joints.ini (created if missing)"
     )
-    p.set_defaults(func=cmd_export)
+    p.set_defaults(func=cmd_export, inputs=("geometry",), outputs=(), folders=())
 
     p = sub.add_parser("import", help="a geometry from a controller's configuration (LinuxCNC genhexkins)")
     p.add_argument("target", choices=("linuxcnc",), help="controller format")
@@ -44,7 +44,7 @@ def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
     )
     p.add_argument("--name", help="geometry name (default: the INI's [EMC] MACHINE)")
     p.add_argument("--out", required=True, help="geometry YAML file to write")
-    p.set_defaults(func=cmd_import)
+    p.set_defaults(func=cmd_import, inputs=("hal", "ini", "home"), outputs=("out",), folders=())
 
 
 def _warn(message: str) -> None:

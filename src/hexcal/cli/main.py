@@ -1,11 +1,13 @@
 """The ``hexcal`` command: the parser assembled from each command group's ``register``, and
-:func:`main`, which runs a subcommand and turns every known failure into one line.
+:func:`main`, which runs a subcommand safely and turns every known failure into one line.
 
-Every known failure (bad file, bad option, unreachable pose, no convergence) ends with one
-line ``hexcal: error: ...`` on stderr and exit status 1, and no output file; an interrupt
-ends with ``hexcal: interrupted`` and status 130; warnings print as
-``hexcal: warning: ...``. Imports only the standard library, :mod:`hexcal.errors` and the
-command modules, whose tops are as light: ``hexcal --help`` imports no numpy.
+Every failure ends with one line ``hexcal: error: ...`` on stderr and no output file: exit
+status 2 for a usage error (a malformed command line), 1 for every other error; SIGINT
+ends with ``hexcal: interrupted`` (130), SIGTERM with ``hexcal: terminated`` (143);
+warnings print as ``hexcal: warning: ...``. The outputs a command declares are checked
+before it runs and committed together with its standard output after it succeeds
+(:mod:`hexcal.cli.safety`). Imports only the standard library, :mod:`hexcal.errors` and
+the command modules, whose tops are as light: ``hexcal --help`` imports no numpy.
 """
 
 from __future__ import annotations
@@ -16,25 +18,73 @@ import os
 import sys
 import warnings
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NoReturn
 
-from hexcal.cli import calibrate, kinematics, linuxcnc, plan, simulate, study
+from hexcal.cli import calibrate, kinematics, linuxcnc, plan, safety, simulate, study
 from hexcal.errors import HexcalError
+
+#: Commands that read a whole table take ``--max-rows`` (default limits in the help).
+MAX_ROWS_COMMANDS = ("identify", "ik", "fk", "validate", "compensate")
+
+EPILOG = (
+    "Exit status: 0 success; 1 error (one line 'hexcal: error: ...', no output written); "
+    f"{safety.USAGE_STATUS} usage error (a malformed command line); 130 interrupted (SIGINT); "
+    "143 terminated (SIGTERM)."
+)
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line ``hexcal: error: ...``."""
+
+    def error(self, message: str) -> NoReturn:
+        print(
+            f"hexcal: error: {self.prog.removeprefix('hexcal ')}: {message}"
+            if self.prog != "hexcal"
+            else f"hexcal: error: {message}",
+            file=sys.stderr,
+        )
+        sys.exit(safety.USAGE_STATUS)
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``hexcal`` parser with every subcommand, in the order of ``hexcal --help``."""
-    parser = argparse.ArgumentParser(
-        prog="hexcal", description="Kinematic calibration of hexapods (Stewart-Gough platforms)."
+    parser = Parser(
+        prog="hexcal",
+        description="Kinematic calibration of hexapods (Stewart-Gough platforms).",
+        epilog=EPILOG,
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
     for group in (kinematics, calibrate, plan, simulate, study, linuxcnc):
         group.register(sub)
+    for name in MAX_ROWS_COMMANDS:
+        sub.choices[name].add_argument(
+            "--max-rows",
+            type=int,
+            default=None,
+            help="rows a table read whole may have (default 1,000,000; 100,000 for measurement files)",
+        )
+        sub.choices[name].epilog = EPILOG
     return parser
 
 
 def _show_warning(message: Any, category: Any, *_args: Any, **_kw: Any) -> None:
     print(f"hexcal: warning: {message}", file=sys.stderr)
+
+
+def _run(args: argparse.Namespace) -> None:
+    """Check the options, then run the command inside its output set (all or nothing)."""
+    safety.check_options(args)
+    token = None
+    if getattr(args, "max_rows", None) is not None:
+        from hexcal.io.inputs import ROW_LIMIT
+
+        token = ROW_LIMIT.set(args.max_rows)
+    try:
+        with safety.command_outputs(args):
+            args.func(args)
+    finally:
+        if token is not None:
+            ROW_LIMIT.reset(token)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -43,24 +93,37 @@ def main(argv: Sequence[str] | None = None) -> int:
     >>> main(["ik", "--geometry", "paper-hmt", "--poses", "missing.csv", "--out", "legs.csv"])
     1
     """
-    args = build_parser().parse_args(argv)
+    old_signals = safety.install_signals()
+    console = argv is None
     old = warnings.showwarning
-    warnings.showwarning = _show_warning
     try:
-        args.func(args)
+        warnings.showwarning = _show_warning
+        # floating-point warnings of numpy ("overflow encountered in ..."): the results are
+        # checked for finite values where they matter; the warning would only confuse
+        if not any(f[0] == "ignore" and f[2] is RuntimeWarning for f in warnings.filters):
+            # (added once: changing the filters would show every warning again)
+            warnings.filterwarnings("ignore", message=r".*encountered in", category=RuntimeWarning)
+        args = build_parser().parse_args(argv)
+        _run(args)
     except BrokenPipeError:  # output piped into `head`: not an error of hexcal's
         with contextlib.suppress(OSError):
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    # ValueError: the library's remaining plain ValueErrors (e.g. numpy's) until every
-    # layer raises HexcalError; OSError: files (the message names the file) until io
-    # converts them
-    except (HexcalError, ValueError, OSError) as exc:
-        print(f"hexcal: error: {exc}", file=sys.stderr)
+    except KeyboardInterrupt as exc:  # SIGINT, or SIGTERM (Terminated)
+        status, line = safety.signal_exit(exc)
+        with contextlib.suppress(Exception):
+            print(line, file=sys.stderr, flush=True)
+        if console:  # skip the interpreter's exit (pool threads): the clean-up is done
+            with contextlib.suppress(Exception):
+                sys.stdout.flush()
+            os._exit(status)
+        return status
+    # ValueError: the library's remaining plain ValueErrors (numpy's LinAlgError is one);
+    # OSError: files; MemoryError: a size the limits did not foresee
+    except (HexcalError, ValueError, OSError, MemoryError, RecursionError) as exc:
+        print(safety.error_line(exc), file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print("hexcal: interrupted", file=sys.stderr)
-        return 130
     finally:
         warnings.showwarning = old
+        safety.restore_signals(old_signals)
     return 0

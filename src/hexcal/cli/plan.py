@@ -374,7 +374,7 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--euler", help=EULER_HELP)
-    p.set_defaults(func=cmd_errormap)
+    p.set_defaults(func=cmd_errormap, inputs=("geometry",), outputs=(), folders=("out",))
 
     p = sub.add_parser("observability", help="observability indices and predicted accuracy of a pose set")
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
@@ -395,7 +395,12 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: plan for targets or a tool")
-    p.set_defaults(func=cmd_observability)
+    p.set_defaults(
+        func=cmd_observability,
+        inputs=("geometry", "poses", "test_poses", "setup"),
+        outputs=("json", "html"),
+        folders=(),
+    )
 
     p = sub.add_parser("candidates", help="feasible candidate measurement poses")
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
@@ -404,7 +409,7 @@ def register(sub: Any) -> None:
     p.add_argument("--min-distance", type=float, help="minimum singularity distance (default 0.05)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--euler", help=EULER_HELP)
-    p.set_defaults(func=cmd_candidates)
+    p.set_defaults(func=cmd_candidates, inputs=("geometry",), outputs=("out",), folders=())
 
     p = sub.add_parser("select", help="select optimal measurement poses (greedy + exchange)")
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
@@ -428,6 +433,6 @@ def register(sub: Any) -> None:
     p.add_argument("--no-exchange", action="store_true", help="greedy selection only")
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: poses optimal for it")
-    p.set_defaults(func=cmd_select)
+    p.set_defaults(func=cmd_select, inputs=("geometry", "setup"), outputs=("out", "json", "html"), folders=())
     for name in ("errormap", "observability", "candidates", "select"):
         show_defaults(sub.choices[name])

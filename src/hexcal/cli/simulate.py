@@ -296,7 +296,12 @@ def register(sub: Any) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--setup", metavar="FILE", help="true tracker setup YAML: campaigns with targets (ml)")
     p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
-    p.set_defaults(func=with_scheduler(cmd_simulate))
+    p.set_defaults(
+        func=with_scheduler(cmd_simulate),
+        inputs=("geometry", "true", "pose_covariance", "setup"),
+        outputs=("html",),
+        folders=("out",),
+    )
 
     p = sub.add_parser("paper", help="reproduce the seed paper's Table I by Monte Carlo")
     p.add_argument("--geometry", default="paper-hmt", help=f"nominal {GEOMETRY_HELP}")
@@ -320,6 +325,8 @@ def register(sub: Any) -> None:
         "--html", metavar="FILE", help="save a self-contained HTML report (tables, figures, inputs)"
     )
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    p.set_defaults(func=with_scheduler(cmd_paper))
+    p.set_defaults(
+        func=with_scheduler(cmd_paper), inputs=("geometry", "true"), outputs=("html",), folders=("out",)
+    )
     for name in ("simulate", "paper"):
         show_defaults(sub.choices[name])

@@ -146,4 +146,6 @@ def register(sub: Any) -> None:
     p.add_argument("--scheduler", metavar="ADDRESS", help=SCHEDULER_HELP)
     p.add_argument("--out", help="folder for selection.json, selection.csv and selection.png")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    p.set_defaults(func=with_scheduler(cmd_study_selection))
+    p.set_defaults(
+        func=with_scheduler(cmd_study_selection), inputs=("geometry", "true"), outputs=(), folders=("out",)
+    )

@@ -19,6 +19,7 @@ from __future__ import annotations
 import fcntl
 import os
 import stat
+from contextvars import ContextVar
 from typing import IO, Any
 
 import yaml
@@ -36,6 +37,17 @@ DEFAULT_MAX_ROWS = 1_000_000
 #: more), so a million poses would need many GB; 100,000 poses (a thousand times a campaign)
 #: is refused above, up front, naming the limit and ``--max-rows``.
 MEASUREMENT_MAX_ROWS = 100_000
+
+#: The command line's ``--max-rows``: when set, it replaces the row limit of every table
+#: read whole in this context (:func:`row_limit`).
+ROW_LIMIT: ContextVar[int | None] = ContextVar("hexcal_row_limit", default=None)
+
+
+def row_limit(default: int | None) -> int | None:
+    """The row limit in force: ``--max-rows`` if the command line set one, else ``default``."""
+    override = ROW_LIMIT.get()
+    return default if override is None or default is None else override
+
 
 #: Levels of nesting allowed in a YAML file (a geometry needs 4).
 MAX_YAML_DEPTH = 64

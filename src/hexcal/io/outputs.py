@@ -50,55 +50,30 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-import signal
 import stat
 import sys
 import tempfile
-import threading
 from collections.abc import Iterable, Iterator
 from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-from hexcal.errors import InputError
+from hexcal.io.output_checks import (
+    OutputError,
+    check_target,
+    current_umask,
+    make_folder,
+    path_key,
+    reason,
+    signals_held,
+)
+from hexcal.report.staging import STAGER
 
 #: The name that means standard output.
 STDOUT = "-"
 
 _ACTIVE: ContextVar[OutputSet | None] = ContextVar("hexcal_active_outputs", default=None)
-
-
-class OutputError(InputError, OSError):
-    """An output cannot be written (refused, or the system failed); one line naming the file."""
-
-    def __str__(self) -> str:  # OSError would format (errno, strerror)
-        return str(self.args[0]) if self.args else ""
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-def _reason(exc: OSError) -> str:
-    return exc.strerror or str(exc)
-
-
-def _kind(mode: int) -> str | None:
-    """A word for a file that is not a regular file, or None."""
-    if stat.S_ISREG(mode):
-        return None
-    if stat.S_ISDIR(mode):
-        return "a folder"
-    if stat.S_ISFIFO(mode):
-        return "a FIFO (named pipe)"
-    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
-        return "a device"
-    if stat.S_ISSOCK(mode):
-        return "a socket"
-    return "not a regular file"
 
 
 @dataclass
@@ -135,7 +110,7 @@ class OutputSet:
     >>> OutputSet([folder / "a.txt"], inputs=[folder / "a.txt"]).check()  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    hexcal.io.outputs.OutputError: .../a.txt: this output is also an input; choose another name
+    hexcal.io.output_checks.OutputError: .../a.txt: this output is also an input; choose another name
     """
 
     def __init__(
@@ -156,6 +131,7 @@ class OutputSet:
         self._checked = False
         self._done = False
         self._token: Any = None
+        self._stager_token: Any = None
 
     # -- declaring and checking -------------------------------------------------------
     def add_input(self, path: str | os.PathLike[str] | None) -> None:
@@ -214,80 +190,24 @@ class OutputSet:
                 raise OutputError(f"{name}: two outputs name the same file; choose another name")
             self._check_output(name)
 
-    @staticmethod
-    def _key(path: str) -> Any:
-        try:
-            st = os.stat(path)
-        except OSError:
-            return os.path.realpath(path)
-        return (st.st_dev, st.st_ino)
-
     def _check_input(self, name: str) -> None:
         if name == STDOUT or not os.path.lexists(name):
             return  # a preset name, or a missing file the reader will report
-        self._input_keys.setdefault(self._key(name), name)
+        self._input_keys.setdefault(path_key(name), name)
 
     def _make_folder(self, folder: Path) -> None:
-        if folder.is_dir():
-            return
-        if os.path.lexists(folder):
-            raise OutputError(f"{folder}: exists and is not a folder")
-        missing = []
-        probe = folder
-        while not os.path.lexists(probe) and probe != probe.parent:
-            missing.append(probe)
-            probe = probe.parent
-        try:
-            folder.mkdir(parents=True)
-        except OSError as exc:
-            raise OutputError(f"{folder}: cannot create the folder: {_reason(exc)}") from None
-        self._created.extend(reversed(missing))
+        self._created.extend(make_folder(folder))
 
     def _check_output(self, name: str) -> None:
-        key = self._key(name)
+        key = path_key(name)
         if key in self._input_keys:
             other = self._input_keys[key]
             same = "" if other == name else f" ({other})"
             raise OutputError(f"{name}: this output is also an input{same}; choose another name")
         for other, out in self._outputs.items():
-            if self._key(str(out.target)) == key or os.path.realpath(name) == str(out.target):
+            if path_key(str(out.target)) == key or os.path.realpath(name) == str(out.target):
                 raise OutputError(f"{name}: two outputs name the same file ({other}); choose another name")
-        target = Path(os.path.realpath(name))
-        existing = None
-        try:
-            existing = os.stat(target)
-        except FileNotFoundError:
-            pass
-        except OSError as exc:
-            raise OutputError(f"{name}: cannot write: {_reason(exc)}") from None
-        if existing is not None:
-            kind = _kind(existing.st_mode)
-            if kind is not None:
-                raise OutputError(
-                    f"{name}: is {kind}; an output must be a regular file (or - for standard output)"
-                )
-            if not existing.st_mode & 0o222 or not os.access(target, os.W_OK):
-                raise OutputError(
-                    f"{name}: the file is read-only; hexcal does not replace it "
-                    "(change its mode or choose another name)"
-                )
-            if existing.st_nlink > 1:
-                raise OutputError(
-                    f"{name}: the file has {existing.st_nlink} hard links and replacing it would break them; "
-                    "remove the other links or choose another name"
-                )
-        folder = target.parent
-        if not folder.is_dir():
-            raise OutputError(f"{name}: the folder {Path(name).parent} does not exist")
-        try:  # the real test of a writable folder (read-only mounts, ACLs, root)
-            with _signals_held():
-                fd, probe = tempfile.mkstemp(prefix=".hexcal-probe.", dir=folder)
-                os.close(fd)
-                os.unlink(probe)
-        except OSError as exc:
-            raise OutputError(
-                f"{name}: cannot write in the folder {Path(name).parent}: {_reason(exc)}"
-            ) from None
+        target, existing = check_target(name)
         self._outputs[name] = _Output(name, target, existing)
 
     def _output(self, path: str | os.PathLike[str]) -> _Output:
@@ -303,14 +223,14 @@ class OutputSet:
         if out.staged is None:
             suffix = out.target.suffix
             try:
-                with _signals_held():  # no interrupt between creating and recording it
+                with signals_held():  # no interrupt between creating and recording it
                     fd, tmp = tempfile.mkstemp(
                         prefix=f".{out.target.stem}.", suffix=f".tmp{suffix}", dir=out.target.parent
                     )
                     os.close(fd)
                     out.staged = Path(tmp)
             except OSError as exc:
-                raise OutputError(f"{out.name}: cannot write: {_reason(exc)}") from None
+                raise OutputError(f"{out.name}: cannot write: {reason(exc)}") from None
         return out.staged
 
     @contextlib.contextmanager
@@ -339,7 +259,7 @@ class OutputSet:
         except OutputError:
             raise
         except OSError as exc:
-            raise OutputError(f"{out.name}: cannot write: {_reason(exc)}") from None
+            raise OutputError(f"{out.name}: cannot write: {reason(exc)}") from None
 
     @contextlib.contextmanager
     def staged(self, path: str | os.PathLike[str]) -> Iterator[str]:
@@ -354,7 +274,7 @@ class OutputSet:
         except OutputError:
             raise
         except OSError as exc:
-            raise OutputError(f"{out.name}: cannot write: {_reason(exc)}") from None
+            raise OutputError(f"{out.name}: cannot write: {reason(exc)}") from None
 
     def write_text(self, path: str | os.PathLike[str], text: str) -> None:
         """Stage ``text`` as the whole content of ``path`` (``-``: standard output)."""
@@ -402,7 +322,7 @@ class OutputSet:
                 stream.flush()
         except OSError as exc:
             raise OutputError(
-                f"standard output: cannot write: {_reason(exc)} (no output file was written)"
+                f"standard output: cannot write: {reason(exc)} (no output file was written)"
             ) from None
 
     def commit(self) -> None:
@@ -412,7 +332,7 @@ class OutputSet:
         staged = [o for o in self._outputs.values() if o.staged is not None]
         try:
             self._write_stdout()
-            with _signals_held():
+            with signals_held():
                 self._replace_all(staged)
         except BaseException:
             self.discard()
@@ -420,7 +340,7 @@ class OutputSet:
         self._done = True
 
     def _replace_all(self, staged: list[_Output]) -> None:
-        mask = _umask()
+        mask = current_umask()
         backups: list[tuple[_Output, Path | None]] = []
         try:
             for out in staged:
@@ -440,7 +360,7 @@ class OutputSet:
         except OSError as exc:
             self._roll_back(backups)
             name = backups[-1][0].name if backups else "output"
-            raise OutputError(f"{name}: cannot write: {_reason(exc)} (no output file was changed)") from None
+            raise OutputError(f"{name}: cannot write: {reason(exc)} (no output file was changed)") from None
         except BaseException:
             self._roll_back(backups)
             raise
@@ -478,6 +398,7 @@ class OutputSet:
 
     def __enter__(self) -> OutputSet:
         self._token = _ACTIVE.set(self)
+        self._stager_token = STAGER.set(self.staged)
         return self
 
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
@@ -489,21 +410,8 @@ class OutputSet:
         finally:
             if self._token is not None:
                 _ACTIVE.reset(self._token)
+                STAGER.reset(self._stager_token)
                 self._token = None
-
-
-@contextlib.contextmanager
-def _signals_held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back while the renames run (delivered right after)."""
-    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
-        yield
-        return
-    held = {signal.SIGINT, signal.SIGTERM}
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def active_outputs() -> OutputSet | None:

@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning
-from hexcal.io.inputs import DEFAULT_MAX_ROWS, open_input, read_text, too_many_rows
+from hexcal.io.inputs import DEFAULT_MAX_ROWS, open_input, read_text, row_limit, too_many_rows
 
 #: Rows converted (or read, by :func:`iter_tables`) at a time.
 BLOCK_ROWS = 16_384
@@ -364,9 +364,9 @@ def read_table(path: str | os.PathLike[str], max_rows: int | None = DEFAULT_MAX_
     path : str or path-like
         A regular file.
     max_rows : int or None
-        More data rows are refused (naming the limit and ``--max-rows``) before they are
-        converted; ``None``: no limit.
-    """
+        More rows are refused before they are converted (``None``: no limit; ``--max-rows``
+        replaces it, :func:`~hexcal.io.inputs.row_limit`)."""
+    max_rows = row_limit(max_rows)
     scanner = _Scanner(path)
     records: list[str] = []
     lines: list[int] = []

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import matplotlib
@@ -18,13 +19,16 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from hexcal.core import PARAMETER_NAMES
+from hexcal.report.staging import staged_path
 
 
 def _save(fig: plt.Figure, path: str | os.PathLike[str]) -> None:
-    tmp = f"{path}.tmp.png"
-    fig.savefig(tmp, dpi=120, bbox_inches="tight")
-    plt.close(fig)
-    os.replace(tmp, path)
+    """Save through the command's output set (committed with its other outputs)."""
+    try:
+        with staged_path(path) as tmp:
+            fig.savefig(tmp, dpi=120, bbox_inches="tight", format=Path(path).suffix[1:] or "png")
+    finally:
+        plt.close(fig)
 
 
 def _note(fig: plt.Figure, note: str) -> None:

@@ -14,6 +14,7 @@ order, so they do not depend on how trials are grouped or where they run.
 from __future__ import annotations
 
 import os
+import signal
 from collections.abc import Callable, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any, Protocol
@@ -60,9 +61,15 @@ class SerialExecutor:
         return future
 
 
+def worker_signals() -> None:
+    """In a pool worker: SIGINT ignored (the parent stops the pool), SIGTERM kills at once."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 def resolve_jobs(jobs: int | None) -> int:
     """Number of processes: ``None`` means all cores, at least 1."""
-    return (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
+    return (os.cpu_count() or 1) if not jobs else max(1, int(jobs))
 
 
 def chunk_indices(trials: int, jobs: int = 1, chunk_size: int | None = None) -> list[NDArray[np.intp]]:
@@ -149,7 +156,7 @@ def map_trials(
         return _collect(executor, fn, definition, chunks, trials, progress, weight)
     if n_jobs == 1 or len(chunks) == 1:
         return _collect(SerialExecutor(), fn, definition, chunks, trials, progress, weight)
-    pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(chunks)))
+    pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(chunks)), initializer=worker_signals)
     try:
         out = _collect(pool, fn, definition, chunks, trials, progress, weight)
     except BaseException as exc:  # errors and KeyboardInterrupt: drop the queued chunks at once

@@ -1,0 +1,272 @@
+"""What every command gets from :func:`hexcal.cli.main.main`, without a line of its own.
+
+- **Signals**: SIGINT raises :class:`KeyboardInterrupt`, SIGTERM :class:`Terminated` (a
+  subclass, so that every ``except KeyboardInterrupt`` cleans up for both: the simulation
+  runner terminates its workers, the output set removes its staged files); a second signal
+  during the clean-up is ignored.
+- **Options**: counts positive, ``--jobs`` not negative (0 = all cores), tolerances finite and
+  positive, ``--max-rows`` positive, and sizes within :data:`MEMORY_BUDGET` before anything
+  is allocated (:func:`check_options`).
+- **Outputs**: a command declares ``inputs``, ``outputs`` and ``folders`` (names of its
+  options) with ``set_defaults`` in its ``register``; :func:`command_outputs` builds one
+  :class:`hexcal.io.OutputSet` of them, checked before the work, active while the command
+  runs (every writer stages into it), with the command's standard output captured and
+  committed with the files: all or nothing.
+- **Messages**: :func:`error_line` turns an exception into one line (no temporary names,
+  linear-algebra failures named as such).
+
+Standard library only at the top (``hexcal --help`` loads no numpy).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import math
+import os
+import re
+import signal
+import sys
+from collections.abc import Iterator
+from typing import Any
+
+from hexcal.cli.common import CommandError
+
+#: Bytes the arrays of one command may take, checked from the options before allocation
+#: (``errormap --grid/--levels/--points/--draws``, ``candidates``/``select --candidates``).
+MEMORY_BUDGET = 2 * 1024**3
+
+#: Options that count things: each must be at least 1.
+COUNT_OPTIONS = ("trials", "n", "draws", "levels", "grid", "points", "max_rows")
+
+#: Bytes per candidate pose: ``candidates`` (poses, feasibility, distances) and ``select``
+#: (a 6 x 42 Jacobian block per candidate, plus the poses).
+CANDIDATE_BYTES = {"candidates": 200, "select": 2400}
+
+#: Commands whose reports carry a Cramér-Rao bound (0 when the noise is 0: said so).
+BOUND_COMMANDS = ("identify", "observability", "select", "simulate", "paper")
+
+#: Bytes kept per simulated trial and campaign kind (parameter errors, bounds and pose errors
+#: of each method: a few hundred numbers).
+TRIAL_BYTES = 2048
+
+#: Fewest poses of a simulated campaign: 42 kinematic parameters, 6 leg equations per pose.
+SIMULATE_MIN_POSES = 7
+
+#: The loosest ``fk --tol`` (mm): a pose solving the legs to worse than a micrometre is not
+#: a solution.
+FK_MAX_TOL = 1e-3
+
+#: Exit status of a usage error (a malformed command line: unknown option, missing value,
+#: a value of the wrong type); every other error exits 1, a signal 130 (SIGINT) or 143
+#: (SIGTERM).
+USAGE_STATUS = 2
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread (a KeyboardInterrupt, so clean-ups run for both)."""
+
+
+def _raise_signal(signum: int, _frame: Any) -> None:
+    for sig in (signal.SIGINT, signal.SIGTERM):  # the clean-up is not interrupted again
+        signal.signal(sig, signal.SIG_IGN)
+    if signum == signal.SIGTERM:
+        raise Terminated()
+    raise KeyboardInterrupt()
+
+
+def install_signals() -> dict[int, Any]:
+    """SIGINT and SIGTERM raise in the main thread; returns the old handlers."""
+    old = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        with contextlib.suppress(ValueError):  # not the main thread: leave them
+            old[sig] = signal.signal(sig, _raise_signal)
+    return old
+
+
+def restore_signals(old: dict[int, Any]) -> None:
+    """Put back the handlers :func:`install_signals` replaced."""
+    for sig, handler in old.items():
+        with contextlib.suppress(ValueError, TypeError):
+            signal.signal(sig, handler)
+
+
+def signal_exit(exc: BaseException) -> tuple[int, str]:
+    """The exit status and the line of an interrupt."""
+    if isinstance(exc, Terminated):
+        return 128 + signal.SIGTERM, "hexcal: terminated"
+    return 128 + signal.SIGINT, "hexcal: interrupted"
+
+
+# -- options ---------------------------------------------------------------------------------
+def _option(dest: str) -> str:
+    return "--" + dest.replace("_", "-")
+
+
+def _candidate_count(spec: str) -> int:
+    """An upper bound of the poses of a ``--candidates`` spec (files count as 0 here)."""
+    total = 0
+    for token in (t.strip() for t in spec.split("+")):
+        kind, _, arg = token.partition(":")
+        if not arg.isdigit():
+            total += 64 if kind in ("corners", "grid", "edges") else 0
+        elif kind == "random":
+            total += int(arg)
+        elif kind in ("grid", "edges"):
+            total += int(arg) ** 6
+    return total
+
+
+def _budget(option: str, size: int, what: str) -> None:
+    if size > MEMORY_BUDGET:
+        raise CommandError(
+            f"{option}: {what} would need about {size / 1024**3:.1f} GiB, over hexcal's memory "
+            f"budget of {MEMORY_BUDGET / 1024**3:.0f} GiB; choose a smaller value"
+        )
+
+
+def check_options(args: argparse.Namespace) -> None:
+    """Refuse nonsense values of the common options, and sizes over the memory budget."""
+    values = vars(args)
+    for dest in COUNT_OPTIONS:
+        value = values.get(dest)
+        if isinstance(value, int) and value < 1:
+            raise CommandError(f"{_option(dest)}: must be at least 1, got {value}")
+    jobs = values.get("jobs")
+    if isinstance(jobs, int) and jobs < 0:
+        raise CommandError(f"--jobs: must be at least 1 (or 0 for all cores), got {jobs}")
+    for dest in ("tol", "amplitude", "min_distance"):
+        value = values.get(dest)
+        if isinstance(value, float) and not (math.isfinite(value) and value > 0):
+            raise CommandError(f"{_option(dest)}: must be a finite positive number, got {value:g}")
+    seed = values.get("seed")
+    if isinstance(seed, int) and seed < 0:
+        raise CommandError(f"--seed: must be a non-negative integer, got {seed}")
+    noise = values.get("noise")
+    if isinstance(noise, str) and "=" in noise and values.get("command") in BOUND_COMMANDS:
+        numbers = [v.partition("=")[2].strip() for v in noise.split(",")]
+        with contextlib.suppress(ValueError):
+            if all(float(v) == 0 for v in numbers):
+                print(
+                    "hexcal: warning: --noise is zero: every predicted bound and standard deviation "
+                    "below is 0 by construction, not a measured accuracy",
+                    file=sys.stderr,
+                )
+    tol = values.get("tol")
+    if values.get("command") == "fk" and isinstance(tol, float) and tol > FK_MAX_TOL:
+        raise CommandError(
+            f"--tol: at most {FK_MAX_TOL:g} mm, got {tol:g} (a looser tolerance accepts poses "
+            "that do not match the legs)"
+        )
+    poses = values.get("poses")
+    if values.get("command") == "simulate" and isinstance(poses, str):
+        counts = [int(t) for t in poses.replace(" ", "").split(",") if t.lstrip("-").isdigit()]
+        if counts and min(counts) < SIMULATE_MIN_POSES:
+            raise CommandError(
+                f"--poses: at least {SIMULATE_MIN_POSES} poses per campaign (42 parameters, 6 "
+                f"equations per pose), got {min(counts)}"
+            )
+    missing = values.get("missing_rate")
+    if isinstance(missing, float) and not 0 <= missing < 1:
+        raise CommandError(f"--missing-rate: must be in [0, 1), got {missing:g}")
+    if values.get("command") == "errormap":
+        draws = values.get("draws") or 1
+        points = max(
+            (values.get("levels") or 1) * (values.get("points") or 1), (values.get("grid") or 1) ** 2
+        )
+        option = "--grid" if (values.get("grid") or 1) ** 2 >= points else "--levels/--points"
+        _budget(option, 48 * 4 * draws * points, "the error maps")
+    trials = values.get("trials")
+    if isinstance(trials, int) and values.get("command") in ("paper", "simulate"):
+        cells = 1
+        for dest in ("poses", "methods", "strategies", "noise_levels"):
+            if isinstance(values.get(dest), str):
+                cells *= len([t for t in values[dest].split(",") if t.strip()]) or 1
+        _budget("--trials", TRIAL_BYTES * trials * cells, f"{trials:,} trials of {cells} campaign kind(s)")
+    spec = values.get("candidates")
+    if isinstance(spec, str) and values.get("command") in CANDIDATE_BYTES:
+        count = _candidate_count(spec)
+        _budget("--candidates", count * CANDIDATE_BYTES[values["command"]], f"{count:,} candidate poses")
+
+
+# -- outputs ---------------------------------------------------------------------------------
+class _Captured(io.TextIOBase):
+    """``sys.stdout`` while a command runs: text kept by the output set until the commit."""
+
+    def __init__(self, outputs: Any, real: Any) -> None:
+        self._outputs = outputs
+        self._real = real
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, text: str) -> int:
+        self._outputs.print(text, end="")
+        return len(text)
+
+    @property
+    def encoding(self) -> str:  # type: ignore[override]
+        return getattr(self._real, "encoding", "utf-8") or "utf-8"
+
+    def isatty(self) -> bool:
+        return False
+
+
+def _names(args: argparse.Namespace, attr: str) -> list[str]:
+    out = []
+    for dest in getattr(args, attr, ()) or ():
+        value = getattr(args, dest, None)
+        if isinstance(value, (list, tuple)):
+            out += [os.fspath(v) for v in value if v is not None]
+        elif value is not None:
+            out.append(os.fspath(value))
+    return out
+
+
+@contextlib.contextmanager
+def command_outputs(args: argparse.Namespace) -> Iterator[Any]:
+    """The command's output set: checked now, active and capturing stdout while it runs."""
+    from hexcal.io import OutputSet, check_input
+
+    real = sys.stdout
+    inputs = _names(args, "inputs")
+    for name in inputs:  # FIFOs and devices refused at once, whichever reader comes later
+        if os.path.lexists(name):
+            check_input(name)
+    outputs = OutputSet(_names(args, "outputs"), inputs=inputs, stdout=real)
+    for folder in _names(args, "folders"):
+        outputs.folder(folder)
+    with outputs:
+        outputs.check()
+        sys.stdout = _Captured(outputs, real)  # type: ignore[assignment]
+        try:
+            yield outputs
+        finally:
+            sys.stdout = real
+
+
+# -- messages --------------------------------------------------------------------------------
+_TEMPORARY = re.compile(
+    r"(?P<dir>[^\s'\"]*/)?\.(?P<stem>[^/\s'\"]+?)\.[A-Za-z0-9_]{6,}\.tmp(?P<suffix>\.\w+)?(\.old)?"
+)
+
+
+def _untemp(text: str) -> str:
+    """Temporary names (``.name.XXXXXX.tmp.png``) replaced by the file they stand for."""
+    return _TEMPORARY.sub(lambda m: f"{m['dir'] or ''}{m['stem']}{m['suffix'] or ''}", text)
+
+
+def error_line(exc: BaseException) -> str:
+    """One line for an error: the message, without temporary names or repeated paths."""
+    name = type(exc).__name__
+    if name == "LinAlgError":
+        text = f"the computation failed numerically ({exc}): the data do not determine the problem"
+    elif isinstance(exc, OSError) and exc.strerror:
+        text = f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
+    elif isinstance(exc, MemoryError):
+        text = "out of memory; reduce the size of the problem (fewer rows, trials or points)"
+    else:
+        text = str(exc) or name
+    text = _untemp(" ".join(text.split()))
+    return f"hexcal: error: {text}"
