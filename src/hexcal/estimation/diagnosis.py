@@ -82,10 +82,12 @@ def diagnose(result: Any, measurements: Any, bad: bool = True) -> list[Reason]:
             f = ((sse0 - sse1) / 6) / max(sse1 / dof1, 1e-300)
             p = 1 - fdtr(6, dof1, max(f, 0.0))
             if p < 1e-3 and rms1 < np.sqrt(BETTER) * rms0:
+                # the leg residual halves with six more parameters: the model is wrong (fail);
+                # a smaller, still significant drop is a warning
                 out.append(
                     Reason(
                         "unfitted-gains",
-                        "warn",
+                        "fail" if rms1 < BETTER * rms0 else "warn",
                         f"fitting the gains lowers the leg residual RMS from {rms0:.4g} to {rms1:.4g} mm "
                         f"(F test p {p:.1e}): fit the gains: --fit joints,l0,gains",
                         {"rms": rms0, "rms_with_gains": rms1},
