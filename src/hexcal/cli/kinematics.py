@@ -66,13 +66,18 @@ def cmd_fk(args: argparse.Namespace) -> None:
     """Poses of the leg lengths (or readings) of a file, by forward kinematics, block by block."""
     import numpy as np
 
-    from hexcal.core import forward_kinematics, leg_lengths, leg_limit_violations
+    from hexcal.core import forward_kinematics, leg_lengths, leg_limit_violations, pose_jacobian_from_arrays
     from hexcal.io import iter_legs, iter_poses, write_table_blocks
 
     geometry = load_geometry(args.geometry, args.euler)
     if not args.guess and geometry.home_pose is None:
         raise CommandError("the geometry has no home_pose: give starting poses with --guess")
     guesses = iter_poses(args.guess, geometry.euler) if args.guess else None
+    if guesses is None:
+        home_lengths, home_jacobian = pose_jacobian_from_arrays(
+            geometry.base_joints, geometry.platform_joints, geometry.home_pose, geometry.euler
+        )
+        home_step = np.linalg.inv(home_jacobian)
     stats = {"rows": 0, "residual": 0.0, "iterations": 0}
 
     def blocks() -> Any:
@@ -97,7 +102,9 @@ def cmd_fk(args: argparse.Namespace) -> None:
                     f"(ids {id_list([legs.ids[k] for k in outside])})"
                 )
             if guesses is None:
-                guess = geometry.home_pose
+                # the first Newton step from the home pose, for all rows at once: one 6x6
+                # Jacobian instead of one per row (the iteration then starts one step closer)
+                guess = geometry.home_pose + (lengths - home_lengths) @ home_step.T
             else:
                 while len(pending) < len(lengths):
                     more = next(guesses, None)
