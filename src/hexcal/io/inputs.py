@@ -26,6 +26,7 @@ import yaml
 from yaml.events import AliasEvent
 
 from hexcal.errors import InputError
+from hexcal.io.output_checks import file_kind
 
 #: Data rows a table may have when it is read whole (``read_table``): a million measured
 #: poses, far beyond any calibration campaign (a few hundred poses). Raised with the
@@ -61,15 +62,13 @@ MAX_YAML_BYTES = 16 * 1024 * 1024
 
 
 def _kind(mode: int) -> str:
-    if stat.S_ISDIR(mode):
+    """Why a file of this mode is refused as an input (file kinds as :func:`file_kind` names them)."""
+    kind = file_kind(mode) or "not a regular file"
+    if kind == "a folder":
         return "is a folder, not a file"
-    if stat.S_ISFIFO(mode):
-        return "is a FIFO (named pipe), not a regular file; hexcal reads only regular files"
-    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
-        return "is a device, not a regular file; hexcal reads only regular files"
-    if stat.S_ISSOCK(mode):
-        return "is a socket, not a regular file; hexcal reads only regular files"
-    return "is not a regular file; hexcal reads only regular files"
+    if kind == "not a regular file":
+        return "is not a regular file; hexcal reads only regular files"
+    return f"is {kind}, not a regular file; hexcal reads only regular files"
 
 
 def check_input(path: str | os.PathLike[str]) -> os.stat_result:
