@@ -11,6 +11,7 @@ __getattr__, __dir__, __all__ = attach(
         "ANGLE_SCALE": "setup",
         "FIXABLE": "setup",
         "FRAME_NAMES": "setup",
+        "FramedModel": "targets",
         "FullPoseModel": "pose",
         "InstrumentValidation": "instrument_data",
         "MODELS": "registry",

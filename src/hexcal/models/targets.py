@@ -17,6 +17,7 @@ array([[ 0.,  0., 60.],
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -112,7 +113,33 @@ def fk_start_poses(geometry: Geometry, readings: NDArray[np.float64]) -> NDArray
     return np.where(fk.converged[:, None], fk.poses, home)
 
 
-class TargetModel(MeasurementModel):
+class FramedModel(MeasurementModel):
+    """An instrument in its own frame: the setup is the frame's pose (first six values) and
+    what the instrument sees on the platform (the rest); poses start from the forward
+    kinematics of the leg readings."""
+
+    def start_poses(self, geometry: Geometry, setup: NDArray[np.float64], data: Any) -> NDArray[np.float64]:
+        return fk_start_poses(geometry, data.readings)
+
+    def platform_setup(
+        self, values: NDArray[np.float64], platform: tuple[NDArray, NDArray], euler: str
+    ) -> NDArray[np.float64]:
+        """The platform part of the setup in new platform coordinates (``p' = R_p p + t_p``)."""
+        raise NotImplementedError
+
+    def transform_setup(
+        self,
+        setup: NDArray[np.float64],
+        base: tuple[NDArray, NDArray],
+        platform: tuple[NDArray, NDArray],
+        euler: str,
+    ) -> NDArray[np.float64]:
+        """Setup values after new base (``p' = R_b p + t_b``) and platform coordinates."""
+        frame = transform_frame(setup[:6], base, euler)
+        return np.concatenate([frame, self.platform_setup(setup[6:], platform, euler)])
+
+
+class TargetModel(FramedModel):
     """Target positions in the instrument frame: ``3 n`` values per pose, any subset present.
 
     Setup parameters: the instrument frame (6), then the targets (``3 n``), see
@@ -179,19 +206,8 @@ class TargetModel(MeasurementModel):
     def covariance(self, noise: NoiseModel) -> NDArray[np.float64]:
         return noise.sigmas[1] ** 2 * np.eye(self.size)
 
-    def start_poses(
-        self, geometry: Geometry, setup: NDArray[np.float64], data: TargetMeasurements
+    def platform_setup(
+        self, values: NDArray[np.float64], platform: tuple[NDArray, NDArray], euler: str
     ) -> NDArray[np.float64]:
-        return fk_start_poses(geometry, data.readings)
-
-    def transform_setup(
-        self,
-        setup: NDArray[np.float64],
-        base: tuple[NDArray, NDArray],
-        platform: tuple[NDArray, NDArray],
-        euler: str,
-    ) -> NDArray[np.float64]:
-        """Setup values after new base (``p' = R_b p + t_b``) and platform coordinates."""
         rp, tp = platform
-        q = setup[6:].reshape(-1, 3) @ rp.T + tp
-        return np.concatenate([transform_frame(setup[:6], base, euler), q.ravel()])
+        return (values.reshape(-1, 3) @ rp.T + tp).ravel()

@@ -25,15 +25,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.core.conventions import euler_axes, rotation_matrices
-from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import UsageError
-from hexcal.models.base import MeasurementModel
 from hexcal.models.legs import pose_frames
 from hexcal.models.pose import Measurements
-from hexcal.models.setup import Setup, frame_transform, matrix_to_euler, transform_frame
-from hexcal.models.targets import cross_axes, fk_start_poses
+from hexcal.models.setup import Setup, frame_transform, matrix_to_euler
+from hexcal.models.targets import FramedModel, cross_axes
 
 
 def rotation_vectors(matrices: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -44,7 +42,7 @@ def rotation_vectors(matrices: NDArray[np.float64]) -> NDArray[np.float64]:
     return Rotation.from_matrix(matrices.reshape(-1, 3, 3)).as_rotvec().reshape(batch + (3,))
 
 
-class ToolModel(MeasurementModel):
+class ToolModel(FramedModel):
     """The tool frame's pose in the instrument frame: 6 values per pose.
 
     Setup parameters: the instrument frame (6), then the tool (6).
@@ -144,20 +142,9 @@ class ToolModel(MeasurementModel):
     def covariance(self, noise: NoiseModel) -> NDArray[np.float64]:
         return noise.pose_cov()
 
-    def start_poses(
-        self, geometry: Geometry, setup: NDArray[np.float64], data: Measurements
+    def platform_setup(
+        self, values: NDArray[np.float64], platform: tuple[NDArray, NDArray], euler: str
     ) -> NDArray[np.float64]:
-        return fk_start_poses(geometry, data.readings)
-
-    def transform_setup(
-        self,
-        setup: NDArray[np.float64],
-        base: tuple[NDArray, NDArray],
-        platform: tuple[NDArray, NDArray],
-        euler: str,
-    ) -> NDArray[np.float64]:
-        """Setup values after new base (``p' = R_b p + t_b``) and platform coordinates."""
         rp, tp = platform
-        rot_t, t_t = frame_transform(setup[6:12], euler)
-        tool = np.concatenate([rp @ t_t + tp, matrix_to_euler(rp @ rot_t, euler)])
-        return np.concatenate([transform_frame(setup[:6], base, euler), tool])
+        rot_t, t_t = frame_transform(values[:6], euler)
+        return np.concatenate([rp @ t_t + tp, matrix_to_euler(rp @ rot_t, euler)])
