@@ -31,17 +31,17 @@ def experiment() -> PaperExperiment:
 
 
 def _assert_same_experiment(a: PaperExperiment, b: PaperExperiment) -> None:
-    for name in (
-        "nominal_vector",
-        "true_vectors",
-        "interior_vectors",
-        "boundary_vectors",
-        "validation_targets",
-    ):
+    for name in ("nominal_vector", "true_vectors", "validation_targets"):  # drawn: the same bits
         assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    for name in ("interior_vectors", "boundary_vectors"):  # solved in stacks: rounding, ~1e-11 mm
+        assert_allclose(getattr(a, name), getattr(b, name), rtol=0, atol=1e-9, err_msg=name)
     for which in ("validation_before", "validation_after"):
         for key in ("position", "orientation"):
-            assert_array_equal(getattr(a, which)[key], getattr(b, which)[key], err_msg=f"{which}[{key}]")
+            # numpy's SIMD sin/cos round a lane and the scalar tail differently, so forward
+            # kinematics stacked with other trials may differ in the last bits (and the identified
+            # parameters above by ~1e-11 mm)
+            got, want = getattr(a, which)[key], getattr(b, which)[key]
+            assert_allclose(got, want, rtol=1e-12, atol=1e-9, err_msg=f"{which}[{key}]")
     assert a.method == b.method
 
 
@@ -315,8 +315,8 @@ def test_paper_experiment_does_not_depend_on_chunks_or_processes(nominal):
         _assert_same_experiment(base, other)
         # maximum likelihood solves a chunk's trials together: other chunks, other last digits
         np.testing.assert_allclose(other.extra["boundary_ml"], base.extra["boundary_ml"], rtol=0, atol=1e-9)
-        for key, bound in base.bounds.items():
-            assert_array_equal(other.bounds[key], bound)
+        for key, bound in base.bounds.items():  # per trial, but its SIMD lanes vary: rounding
+            assert_allclose(other.bounds[key], bound, rtol=1e-12)
 
 
 def test_an_unreachable_campaign_fails_its_trials_not_the_experiment(nominal, true_machine):
