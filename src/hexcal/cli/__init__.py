@@ -3,7 +3,8 @@
 - :mod:`hexcal.cli.main`: the parser and :func:`main` (the console script);
 - :mod:`hexcal.cli.common`: shared option helpers and :class:`CommandError`;
 - :mod:`hexcal.cli.kinematics` (preset, ik, fk), :mod:`hexcal.cli.calibrate` (identify,
-  validate, compensate, synthesize), :mod:`hexcal.cli.simulate` (simulate, paper),
+  validate, synthesize), :mod:`hexcal.cli.compensation` (compensate),
+  :mod:`hexcal.cli.simulate` (simulate, paper),
   :mod:`hexcal.cli.plan` (errormap, observability, candidates, select).
 
 The top of every module imports only the standard library, :mod:`hexcal.errors` and

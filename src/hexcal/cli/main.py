@@ -20,7 +20,7 @@ import warnings
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
-from hexcal.cli import calibrate, kinematics, linuxcnc, plan, safety, simulate, study
+from hexcal.cli import calibrate, compensation, kinematics, linuxcnc, plan, safety, simulate, study
 from hexcal.errors import HexcalError
 
 #: Commands that read a whole table take ``--max-rows`` (default limits in the help).
@@ -54,7 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG,
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
-    for group in (kinematics, calibrate, plan, simulate, study, linuxcnc):
+    for group in (kinematics, calibrate, compensation, plan, simulate, study, linuxcnc):
         group.register(sub)
     for name in MAX_ROWS_COMMANDS:
         sub.choices[name].add_argument(
