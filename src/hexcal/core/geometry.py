@@ -1,7 +1,9 @@
-"""The hexapod geometry: an immutable value object and its named parameter vector.
+"""The hexapod geometry: an immutable value object and its named parameters.
 
-Parameter order and names follow FORMATS.md: ``u1.x u1.y u1.z ... u6.z``,
-``s1.x ... s6.z``, ``l0_1 ... l0_6`` and, optionally, ``g1 ... g6``.
+The machine's parameters are the joint block ``u1.x u1.y u1.z ... u6.z``,
+``s1.x ... s6.z`` and the leg model's block (:mod:`hexcal.core.legs`): ``l0_1 ... l0_6``,
+``g1 ... g6`` and the model's own terms (none for the linear model, whose 48 parameters are
+the seed paper's; see the user's guide, "Geometry file").
 """
 
 from __future__ import annotations
@@ -15,7 +17,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.conventions import DEFAULT_EULER, N_LEGS, POSE_NAMES, check_euler
-from hexcal.core.parameters import N_ALL_PARAMETERS, N_BASE_PARAMETERS, PARAMETER_NAMES
+from hexcal.core.legs import LegModel, LinearLegs, leg_model_from_dict
+from hexcal.core.parameters import (
+    DEFAULT_FIT,
+    JOINT_NAMES,
+    N_ALL_PARAMETERS,
+    N_BASE_PARAMETERS,
+    PARAMETER_GROUPS,
+    PARAMETER_NAMES,
+    ParameterSet,
+)
 from hexcal.errors import GeometryError
 
 
@@ -80,6 +91,11 @@ class Geometry:
     name : str
     calibration : dict, optional
         Metadata of the identification that produced this geometry.
+    leg_model : LegModel, optional
+        How a reading becomes a length (:mod:`hexcal.core.legs`); default linear,
+        ``l0_i + g_i dl_i``.
+    leg_terms : array_like, shape (6, k), optional
+        The leg model's own per-leg terms beyond ``l0`` and the gain (none for linear).
     """
 
     base_joints: NDArray[np.float64]
@@ -92,9 +108,16 @@ class Geometry:
     euler: str = DEFAULT_EULER
     name: str = ""
     calibration: dict[str, Any] | None = None
+    leg_model: LegModel = field(default_factory=LinearLegs)
+    leg_terms: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         put = object.__setattr__
+        if not isinstance(self.leg_model, LegModel):
+            raise GeometryError(f"leg_model must be a LegModel, got {type(self.leg_model).__name__}")
+        n_terms = len(self.leg_model.terms)
+        terms = np.zeros((N_LEGS, n_terms)) if self.leg_terms is None else self.leg_terms
+        put(self, "leg_terms", _frozen(terms, (N_LEGS, n_terms), "leg_terms"))
         put(self, "base_joints", _frozen(self.base_joints, (6, 3), "base_joints"))
         put(self, "platform_joints", _frozen(self.platform_joints, (6, 3), "platform_joints"))
         put(
@@ -199,6 +222,58 @@ class Geometry:
         vec = self.to_vector(gains)
         return {n: float(v) for n, v in zip(PARAMETER_NAMES, vec, strict=False)}
 
+    # -- named blocks: joints and the leg model ------------------------------
+    def leg_block(self) -> NDArray[np.float64]:
+        """The leg model's parameter values: ``l0``, gains, then the model's terms."""
+        return np.concatenate([self.initial_leg_lengths, self.leg_gains, self.leg_terms.T.ravel()])
+
+    def with_leg_block(self, block: ArrayLike) -> Geometry:
+        """Copy with the leg model's parameters from a block (order of :meth:`leg_block`)."""
+        block = np.asarray(block, dtype=float)
+        if block.shape != (self.leg_model.size,):
+            raise ValueError(f"leg block must have shape ({self.leg_model.size},), got {block.shape}")
+        terms = block[12:].reshape(-1, N_LEGS).T
+        return dataclasses.replace(
+            self, initial_leg_lengths=block[:6], leg_gains=block[6:12], leg_terms=terms
+        )
+
+    def joint_block(self) -> NDArray[np.float64]:
+        """The joint coordinates: base joints, then platform joints (36 values)."""
+        return np.concatenate([self.base_joints.ravel(), self.platform_joints.ravel()])
+
+    def machine_names(self) -> tuple[str, ...]:
+        """Names of the machine's parameters: the joints, then the leg model's block."""
+        return JOINT_NAMES + self.leg_model.names()
+
+    def machine_vector(self) -> NDArray[np.float64]:
+        """Values of :meth:`machine_names` (48 for linear legs: ``to_vector(gains=True)``)."""
+        return np.concatenate([self.joint_block(), self.leg_block()])
+
+    def with_machine_vector(self, vector: ArrayLike) -> Geometry:
+        """Copy with the machine's parameters from a vector in the order of :meth:`machine_names`."""
+        vec = np.asarray(vector, dtype=float)
+        n = len(JOINT_NAMES) + self.leg_model.size
+        if vec.shape != (n,):
+            raise ValueError(f"machine vector must have shape ({n},), got {vec.shape}")
+        joints = dataclasses.replace(
+            self, base_joints=vec[:18].reshape(6, 3), platform_joints=vec[18:36].reshape(6, 3)
+        )
+        return joints.with_leg_block(vec[36:])
+
+    def machine_parameters(self, fit: str | Any = DEFAULT_FIT, fix: Any = ()) -> ParameterSet:
+        """The machine's :class:`ParameterSet`: blocks ``joints`` and ``legs``, the groups
+        ``joints, base, platform`` and the leg model's (``l0, gains, ...``), varied by the
+        groups of ``fit`` less the names in ``fix``."""
+        legs = self.leg_model
+        groups = {k: PARAMETER_GROUPS[k] for k in ("joints", "base", "platform")} | legs.groups()
+        scales = np.concatenate([np.ones(len(JOINT_NAMES)), legs.scales(self.leg_block())])
+        n = len(JOINT_NAMES) + legs.size
+        blocks = {"joints": (0, len(JOINT_NAMES)), "legs": (len(JOINT_NAMES), n)}
+        full = ParameterSet(
+            self.machine_names(), self.machine_vector(), np.zeros(n, bool), scales, groups, blocks
+        )
+        return full.select(fit, fix)
+
     def replace(self, **changes: Any) -> Geometry:
         """Copy with some fields changed (``dataclasses.replace``)."""
         return dataclasses.replace(self, **changes)
@@ -230,6 +305,7 @@ class Geometry:
             "home_pose",
             "workspace",
             "calibration",
+            "leg_model",
         }
         unknown = sorted(map(repr_key, set(data) - known))
         if unknown:
@@ -253,6 +329,8 @@ class Geometry:
             if not isinstance(data["calibration"], dict):
                 raise GeometryError("calibration must be a mapping")
             kwargs["calibration"] = data["calibration"]
+        if data.get("leg_model") is not None:
+            kwargs["leg_model"], kwargs["leg_terms"] = leg_model_from_dict(data["leg_model"])
         return cls(**kwargs)
 
     def to_dict(self) -> dict[str, Any]:
@@ -266,6 +344,8 @@ class Geometry:
         out["platform_joints"] = self.platform_joints.tolist()
         out["initial_leg_lengths"] = self.initial_leg_lengths.tolist()
         out["leg_gains"] = self.leg_gains.tolist()
+        if self.leg_model.terms or self.leg_model.settings():  # linear legs: the key is left out
+            out["leg_model"] = self.leg_model.to_dict(self.leg_block())
         if self.leg_length_limits is not None:
             out["leg_length_limits"] = self.leg_length_limits.tolist()
         if self.home_pose is not None:

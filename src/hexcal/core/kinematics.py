@@ -1,7 +1,8 @@
 """Inverse and forward kinematics, the pose Jacobian and the workspace.
 
 All functions are batch-first: poses have shape ``(..., 6)`` and broadcast.
-The leg model is ``l_i = |o + R s_i - u_i| = l0_i + g_i dl_i`` (FORMATS.md).
+A leg's length is ``l_i = |o + R s_i - u_i|``; its reading becomes a length through the
+geometry's leg model (:mod:`hexcal.core.legs`; ``l0_i + g_i dl_i`` for linear legs).
 
 The low-level functions take the joint arrays directly, so that a batch of
 different machines (one per Monte Carlo trial, say) broadcasts like a batch of
@@ -131,15 +132,15 @@ def inverse_kinematics(geometry: Geometry, poses: ArrayLike) -> NDArray[np.float
 
 
 def leg_readings(geometry: Geometry, lengths: ArrayLike) -> NDArray[np.float64]:
-    """Leg readings ``dl = (l - l0) / g`` of absolute leg lengths, shape ``(..., 6)``."""
-    lengths = np.asarray(lengths, dtype=float)
-    return (lengths - geometry.initial_leg_lengths) / geometry.leg_gains
+    """Leg readings of absolute leg lengths through the geometry's leg model (``(l - l0) / g``
+    for linear legs), shape ``(..., 6)``."""
+    return geometry.leg_model.readings(geometry.leg_block(), lengths)
 
 
 def leg_lengths(geometry: Geometry, readings: ArrayLike) -> NDArray[np.float64]:
-    """Absolute leg lengths ``l = l0 + g dl`` of leg readings, shape ``(..., 6)``."""
-    readings = np.asarray(readings, dtype=float)
-    return geometry.initial_leg_lengths + geometry.leg_gains * readings
+    """Absolute leg lengths of leg readings through the geometry's leg model (``l0 + g dl``
+    for linear legs), shape ``(..., 6)``."""
+    return geometry.leg_model.lengths(geometry.leg_block(), readings)
 
 
 def pose_jacobian_from_arrays(

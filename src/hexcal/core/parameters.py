@@ -1,10 +1,13 @@
-"""Named kinematic parameters: names, groups, scales, and the :class:`ParameterSet`.
+"""Named kinematic parameters: names, groups, blocks, scales, and the :class:`ParameterSet`.
 
-The machine has 48 parameters in a fixed order (FORMATS.md): ``u1.x ... u6.z`` (base
-joints), ``s1.x ... s6.z`` (platform joints), ``l0_1 ... l0_6`` (initial leg lengths) and
-``g1 ... g6`` (leg gains). A measurement model may add its own (an instrument frame,
-targets on the platform); a :class:`ParameterSet` holds any such list with values, vary
-flags, characteristic scales and groups, in the spirit of lmfit's ``Parameters``.
+The machine's parameters are two named blocks: ``joints``, ``u1.x ... u6.z`` (base joints)
+and ``s1.x ... s6.z`` (platform joints), then ``legs``, the block of the leg model
+(:mod:`hexcal.core.legs`: ``l0_1 ... l0_6``, ``g1 ... g6`` and the model's own terms). With
+the linear leg model these are the 48 parameters of the seed paper's model
+(:data:`PARAMETER_NAMES`). An instrument adds its own blocks (an instrument frame, targets
+on the platform, a tool). A :class:`ParameterSet` holds any such list with values, vary
+flags, characteristic scales, groups and blocks, in the spirit of lmfit's ``Parameters``;
+code reaches a block by name (:meth:`ParameterSet.span`), never by position.
 
 Imports numpy and :mod:`hexcal.errors` only.
 
@@ -34,6 +37,9 @@ PARAMETER_NAMES: tuple[str, ...] = (
 )
 N_BASE_PARAMETERS = 42
 N_ALL_PARAMETERS = 48
+
+#: Names of the joint block: base joints, then platform joints.
+JOINT_NAMES: tuple[str, ...] = PARAMETER_NAMES[:36]
 
 #: Parameter groups of the machine, for selecting what an identification varies.
 PARAMETER_GROUPS: dict[str, tuple[str, ...]] = {
@@ -91,6 +97,9 @@ class ParameterSet:
         default 1.
     groups : mapping of str to sequence of str, optional
         Named groups of parameter names (a parameter may belong to several).
+    blocks : mapping of str to (start, stop), optional
+        Named contiguous blocks (``joints``, ``legs``, an instrument's setup): where each
+        part of the model finds its values. Default one block ``all``.
     """
 
     def __init__(
@@ -100,6 +109,7 @@ class ParameterSet:
         vary: ArrayLike | None = None,
         scales: ArrayLike | None = None,
         groups: Mapping[str, Sequence[str]] | None = None,
+        blocks: Mapping[str, tuple[int, int]] | None = None,
     ) -> None:
         self.names: tuple[str, ...] = tuple(names)
         n = len(self.names)
@@ -112,6 +122,12 @@ class ParameterSet:
             if arr.shape != (n,):
                 raise UsageError(f"parameter {what} must have shape ({n},), got {arr.shape}")
         self.groups: dict[str, tuple[str, ...]] = {k: tuple(v) for k, v in (groups or {}).items()}
+        self.blocks: dict[str, tuple[int, int]] = (
+            {"all": (0, n)} if blocks is None else {k: (int(a), int(b)) for k, (a, b) in blocks.items()}
+        )
+        for key, (a, b) in self.blocks.items():
+            if not 0 <= a <= b <= n:
+                raise UsageError(f"parameter block {key!r} [{a}, {b}) outside the {n} parameters")
         self._index = {name: k for k, name in enumerate(self.names)}
 
     # -- construction -------------------------------------------------------------------
@@ -119,25 +135,52 @@ class ParameterSet:
     def machine(
         cls, values: ArrayLike, fit: str | Sequence[str] = DEFAULT_FIT, fix: Iterable[str] = ()
     ) -> ParameterSet:
-        """The 48 machine parameters with values (a 48-vector) and vary flags from ``fit``/``fix``."""
+        """The 48 parameters of a machine with linear legs, values a 48-vector, vary flags from
+        ``fit``/``fix`` (any leg model: :func:`machine_parameters`)."""
         values = np.asarray(values, dtype=float)
         if values.shape != (N_ALL_PARAMETERS,):
             raise UsageError(f"machine parameter values must have shape (48,), got {values.shape}")
-        base = cls(PARAMETER_NAMES, values, np.zeros(48, bool), PARAMETER_SCALE, PARAMETER_GROUPS)
+        blocks = {"joints": (0, 36), "legs": (36, 48)}
+        base = cls(PARAMETER_NAMES, values, np.zeros(48, bool), PARAMETER_SCALE, PARAMETER_GROUPS, blocks)
         return base.select(fit, fix)
 
     def __add__(self, other: ParameterSet) -> ParameterSet:
-        """The parameters of both sets, ``self`` first (e.g. machine plus instrument setup)."""
+        """The parameters of both sets, ``self`` first (e.g. machine plus instrument setup);
+        blocks of the same name must not repeat."""
         groups = dict(self.groups)
         for key, names in other.groups.items():
             groups[key] = groups.get(key, ()) + names
+        offset = len(self)
+        blocks = dict(self.blocks) if "all" not in self.blocks or len(self.blocks) > 1 else {}
+        for key, (a, b) in other.blocks.items():
+            if key == "all" and len(other.blocks) == 1:
+                continue
+            if key in blocks:
+                raise UsageError(f"parameter block {key!r} appears twice")
+            blocks[key] = (a + offset, b + offset)
         return ParameterSet(
             self.names + other.names,
             np.concatenate([self.values, other.values]),
             np.concatenate([self.vary, other.vary]),
             np.concatenate([self.scales, other.scales]),
             groups,
+            blocks or None,
         )
+
+    def span(self, block: str) -> slice:
+        """The positions of a named block (``joints``, ``legs``, a setup's block)."""
+        try:
+            a, b = self.blocks[block]
+        except KeyError:
+            raise UsageError(f"no parameter block {block!r}; the set has {', '.join(self.blocks)}") from None
+        return slice(a, b)
+
+    def has_block(self, block: str) -> bool:
+        return block in self.blocks
+
+    def free_in(self, block: str) -> NDArray[np.bool_]:
+        """Which parameters of a block are varied (the block's slice of :attr:`vary`)."""
+        return np.array(self.vary[self.span(block)])
 
     def select(self, fit: str | Sequence[str] = DEFAULT_FIT, fix: Iterable[str] = ()) -> ParameterSet:
         """Copy that varies the groups in ``fit`` (comma-separated or a sequence) less ``fix``."""
@@ -153,11 +196,15 @@ class ParameterSet:
             vary[self._index[name]] = False
         if not vary.any():
             raise UsageError("no parameter left to identify")
-        return ParameterSet(self.names, self.values, vary, self.scales, self.groups)
+        return self.with_vary(vary)
 
     def with_values(self, values: ArrayLike) -> ParameterSet:
         """Copy with new values of all parameters."""
-        return ParameterSet(self.names, values, self.vary, self.scales, self.groups)
+        return ParameterSet(self.names, values, self.vary, self.scales, self.groups, self.blocks)
+
+    def with_vary(self, vary: ArrayLike) -> ParameterSet:
+        """Copy with new vary flags."""
+        return ParameterSet(self.names, self.values, vary, self.scales, self.groups, self.blocks)
 
     # -- access -------------------------------------------------------------------------
     def __len__(self) -> int:
