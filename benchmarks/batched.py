@@ -32,7 +32,7 @@ from hexcal.core.presets import preset
 from hexcal.core.workspace import workspace_corners
 from hexcal.estimation.batched import estimate_batch
 from hexcal.estimation.fitting import estimate
-from hexcal.models.pose import Measurements
+from hexcal.instruments.pose import Measurements
 
 SEED = 20261130
 TARGETS = {"paper": 2000.0, "ml": 500.0}  # identifications per second per core

@@ -44,7 +44,7 @@ from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.errors import IdentificationError
 from hexcal.estimation.fitting import estimate
-from hexcal.models.pose import Measurements
+from hexcal.instruments.pose import Measurements
 
 BENCHMARKS = ("ik", "fk", "identify", "ml", "identify-cli", "cli")
 SEED = 20240601

@@ -39,13 +39,13 @@ from hexcal.estimation.instrument import identify_instrument, instrument_paramet
 from hexcal.estimation.instrument_table import format_table, instrument_identifiability
 from hexcal.estimation.model_bounds import model_cramer_rao
 from hexcal.estimation.problem import Problem
-from hexcal.models.instrument_data import (
+from hexcal.instruments.instrument_data import (
     predict_instrument,
     simulate_target_measurements,
     true_poses,
 )
-from hexcal.models.pose import Measurements
-from hexcal.models.targets import TargetModel
+from hexcal.instruments.pose import Measurements
+from hexcal.instruments.targets import TargetModel
 
 # the tests' general 6-6 machine and tracker setups (one definition for tests and benchmark)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))

@@ -23,7 +23,7 @@ from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_l
 from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import workspace_corners
-from hexcal.models.pose import Measurements
+from hexcal.instruments.pose import Measurements
 
 
 def simulate_measurements(

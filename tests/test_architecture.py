@@ -1,7 +1,7 @@
 """The architecture as the folder tree shows it, checked on the source (issue 8).
 
 Layers, lowest first: ``errors`` and ``_lazy`` (anyone may import them), ``core``,
-``models``, ``estimation``, ``design``, ``simulation``, ``report``, then ``io`` and ``cli``
+``instruments``, ``estimation``, ``design``, ``simulation``, ``report``, then ``io`` and ``cli``
 (the edges). A module may import its own layer and lower ones, never a higher one; no
 module imports a private (underscore) name of another module; modules stay small; only the
 figure module imports matplotlib; numpy and scipy stay out of the command line's start-up.
@@ -23,7 +23,7 @@ LAYERS = {
     "errors": 0,
     "_lazy": 0,
     "core": 1,
-    "models": 2,
+    "instruments": 2,
     "estimation": 3,
     "design": 4,
     "simulation": 5,

@@ -26,7 +26,7 @@ from hexcal.estimation.batched import (
     identify_chunk,
 )
 from hexcal.estimation.batched_solver import cholesky_solve
-from hexcal.models.pose import Measurements
+from hexcal.instruments.pose import Measurements
 
 #: Agreement demanded with the one-at-a-time solver, mm (gains: dimensionless).
 AGREEMENT = 1e-9

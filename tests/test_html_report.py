@@ -19,7 +19,7 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import workspace_corners
 from hexcal.estimation import estimate, validate
-from hexcal.models.pose import Measurements
+from hexcal.instruments.pose import Measurements
 from hexcal.report.html_reports import identification_report, render_html, validation_report
 from hexcal.simulation import simulate_measurements
 

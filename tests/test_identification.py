@@ -14,8 +14,8 @@ from hexcal.core.workspace import random_poses
 from hexcal.errors import IdentificationError
 from hexcal.estimation.fitting import estimate
 from hexcal.estimation.problem import identification_jacobian, identification_residuals
-from hexcal.models.legs import VARIANTS as METHODS
-from hexcal.models.pose import Measurements
+from hexcal.instruments.legs import VARIANTS as METHODS
+from hexcal.instruments.pose import Measurements
 
 # true leg gains off by about 1e-3 (a leg moving 300 mm then errs by about 0.3 mm)
 GAIN_ERRORS = 1e-3 * np.array([1.0, -1.0, 0.5, -0.5, 2.0, -1.5])

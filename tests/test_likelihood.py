@@ -14,7 +14,7 @@ from hexcal.core.workspace import workspace_corners
 from hexcal.errors import IdentificationError
 from hexcal.estimation.bounds import bound_mean_abs_error, cramer_rao_covariance, fisher_information
 from hexcal.estimation.fitting import estimate
-from hexcal.models.pose import Measurements
+from hexcal.instruments.pose import Measurements
 from hexcal.simulation import simulate_measurements
 
 PAPER_NOISE = NoiseModel()  # the seed paper's section VI: ±0.01 mm, ±0.025 mm, ±0.001 rad

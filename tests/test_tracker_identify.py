@@ -15,16 +15,16 @@ from hexcal.estimation.gauge import apply_convention, gauge_freedoms
 from hexcal.estimation.instrument import identify_instrument, instrument_parameters
 from hexcal.estimation.model_bounds import model_cramer_rao
 from hexcal.estimation.problem import Problem
-from hexcal.models.instrument_data import (
+from hexcal.instruments.instrument_data import (
     predict_instrument,
     simulate_target_measurements,
     simulate_tool_measurements,
     validate_instrument,
 )
-from hexcal.models.registration import register_frame
-from hexcal.models.setup import Setup
-from hexcal.models.targets import TargetModel
-from hexcal.models.tool import ToolModel
+from hexcal.instruments.registration import register_frame
+from hexcal.instruments.setup import Setup
+from hexcal.instruments.targets import TargetModel
+from hexcal.instruments.tool import ToolModel
 from tracker_cases import general_machines, poses, tracker_setups
 
 NOISE = NoiseModel(leg=0.005, position=0.015, orientation=2e-5, distribution="normal")

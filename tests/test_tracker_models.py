@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from hexcal.errors import InputError, UsageError
-from hexcal.models.registry import model_by_name
-from hexcal.models.setup import Setup
-from hexcal.models.targets import TargetMeasurements, TargetModel
-from hexcal.models.tool import ToolModel
+from hexcal.instruments.registry import model_by_name
+from hexcal.instruments.setup import Setup
+from hexcal.instruments.targets import TargetMeasurements, TargetModel
+from hexcal.instruments.tool import ToolModel
 from tracker_cases import TARGETS3, general_machines
 
 FRAME = np.array([2500.0, -800.0, 300.0, 0.3, -1.1, 2.5])

@@ -8,8 +8,8 @@ import pytest
 from hexcal.core.noise import NoiseModel
 from hexcal.estimation.instrument import identify_instrument
 from hexcal.estimation.instrument_robust import identify_instrument_robust, instrument_diagnostics
-from hexcal.models.instrument_data import simulate_target_measurements
-from hexcal.models.targets import TargetMeasurements
+from hexcal.instruments.instrument_data import simulate_target_measurements
+from hexcal.instruments.targets import TargetMeasurements
 from tracker_cases import general_machines, poses, tracker_setups
 
 NOISE = NoiseModel(leg=0.005, position=0.015, orientation=2e-5, distribution="normal")

@@ -11,8 +11,8 @@ from hexcal.estimation.gauge import apply_convention, gauge_freedoms
 from hexcal.estimation.instrument import identify_instrument, instrument_parameters
 from hexcal.estimation.model_bounds import information_blocks, model_cramer_rao
 from hexcal.estimation.problem import Problem
-from hexcal.models.instrument_data import simulate_target_measurements, true_poses
-from hexcal.models.targets import TargetModel
+from hexcal.instruments.instrument_data import simulate_target_measurements, true_poses
+from hexcal.instruments.targets import TargetModel
 from tracker_cases import general_machines, poses, tracker_setups
 
 NOISE = NoiseModel(leg=0.005, position=0.015, orientation=2e-5, distribution="normal")

@@ -15,7 +15,7 @@ from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.errors import IdentificationError
 from hexcal.estimation.fitting import estimate
 from hexcal.estimation.verdict import predicted_pose_accuracy, undetermined
-from hexcal.models.pose import Measurements
+from hexcal.instruments.pose import Measurements
 
 NOMINAL, TRUE = preset("paper-hmt"), preset("paper-hmt-true")
 NOISE = NoiseModel()  # the seed paper's: the data below are simulated with it

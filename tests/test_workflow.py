@@ -38,7 +38,7 @@ from hexcal.estimation.fitting import estimate
 from hexcal.estimation.robust import DEFAULT_ALPHA, identify_robust, pose_diagnostics
 from hexcal.estimation.validation import validate
 from hexcal.io import read_measurements, write_measurements
-from hexcal.models.pose import Measurements
+from hexcal.instruments.pose import Measurements
 from hexcal.report.text import format_identification_report, identification_summary
 from hexcal.simulation import simulate_measurements
 

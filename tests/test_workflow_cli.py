@@ -37,7 +37,7 @@ from hexcal.io import (
     write_poses,
     write_table,
 )
-from hexcal.models.pose import Measurements
+from hexcal.instruments.pose import Measurements
 
 NOMINAL = preset("paper-hmt")
 TRUE = preset("paper-hmt-true")

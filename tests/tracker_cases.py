@@ -8,7 +8,7 @@ from scipy.spatial.transform import Rotation
 from hexcal.core.geometry import Geometry
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses
-from hexcal.models.setup import Setup
+from hexcal.instruments.setup import Setup
 
 TARGETS3 = {"t1": [0.0, 0.0, 60.0], "t2": [150.0, 20.0, 55.0], "t3": [-40.0, 160.0, 70.0]}
 

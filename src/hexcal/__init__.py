@@ -1,7 +1,7 @@
 """hexcal: kinematic calibration of hexapods (Stewart-Gough platforms, hexapod machine tools).
 
 The public API below is lazy (PEP 562): ``import hexcal`` is cheap, and each name loads
-its layer when first used. Layers: :mod:`hexcal.core` -> :mod:`hexcal.models` ->
+its layer when first used. Layers: :mod:`hexcal.core` -> :mod:`hexcal.instruments` ->
 :mod:`hexcal.estimation` -> :mod:`hexcal.design` -> :mod:`hexcal.simulation` ->
 :mod:`hexcal.report` -> :mod:`hexcal.io` / :mod:`hexcal.cli`.
 
@@ -64,9 +64,9 @@ _PUBLIC = {
     "random_poses": "core",
     "ParameterSet": "core",
     "select_parameters": "core",
-    "Measurements": "models",
-    "MeasurementModel": "models",
-    "FullPoseModel": "models",
+    "Measurements": "instruments",
+    "MeasurementModel": "instruments",
+    "FullPoseModel": "instruments",
     "NoiseModel": "core",
     "estimate": "estimation",
     "ESTIMATORS": "estimation",

@@ -37,7 +37,7 @@ from hexcal.cli.common import (
 def _problem(geometry: Any, setup: Any, poses: Any, fit: str) -> tuple[Any, Any]:
     """The noise-free identification problem of ``setup`` at ``poses`` and its true poses."""
     from hexcal.estimation import Problem, instrument_parameters
-    from hexcal.models import instrument_model, simulate_target_measurements, simulate_tool_measurements
+    from hexcal.instruments import instrument_model, simulate_target_measurements, simulate_tool_measurements
 
     if setup.auto:  # the ranks and (isotropic) bounds do not depend on where the instrument stands
         setup = setup.with_vector(setup.vector())
@@ -83,7 +83,7 @@ def instrument_plan(geometry: Any, setup: Any, poses: Any, noise: Any, fit: str)
 def _full_pose(setup: Any) -> Any:
     import numpy as np
 
-    from hexcal.models import Setup
+    from hexcal.instruments import Setup
 
     return Setup(setup.frame_or_identity(), tool=np.zeros(6), fixed=("instrument_frame", "tool"))
 
@@ -188,7 +188,7 @@ def _cell(
         instrument_parameters,
         model_cramer_rao,
     )
-    from hexcal.models import Setup, instrument_model, predict_instrument, simulate_target_measurements
+    from hexcal.instruments import Setup, instrument_model, predict_instrument, simulate_target_measurements
 
     start = Setup(None, setup.targets, fixed=setup.fixed, euler=setup.euler)
     full_true = np.concatenate([true.to_vector(gains=True), setup.vector()])

@@ -1,6 +1,6 @@
 """Estimators (a registry by name, one signature, one result type), the Fisher
 information and Cramér–Rao bound, robust fitting and validation on held-out data. Imports
-:mod:`hexcal.core` and :mod:`hexcal.models`.
+:mod:`hexcal.core` and :mod:`hexcal.instruments`.
 """
 
 from hexcal._lazy import attach

@@ -31,7 +31,7 @@ from hexcal.core.linalg import gram_pinv, gram_pinv_diagonal, scaled_svd, whiten
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import select_parameters
 from hexcal.estimation.problem import identification_jacobian
-from hexcal.models.pose import Measurements
+from hexcal.instruments.pose import Measurements
 
 #: Smallest leg sensor σ used in the likelihood (mm): a zero σ makes the legs exact
 #: constraints, which this floor approximates without dividing by zero.

@@ -40,7 +40,7 @@ from hexcal.estimation.robust import (
     screen_poses,
 )
 from hexcal.estimation.verdict import MAX_CHANGE, assess
-from hexcal.models.base import MeasurementModel
+from hexcal.instruments.base import MeasurementModel
 
 #: ``noise=`` value (and ``default_noise``) that learns the noise from the data.
 AUTO = "auto"
@@ -72,7 +72,7 @@ def estimate(
     start : Geometry
         Start values (the nominal geometry); parameters not varied keep its values.
     measurements
-        The observations (:class:`hexcal.models.pose.Measurements` for the default model).
+        The observations (:class:`hexcal.instruments.pose.Measurements` for the default model).
     method : str
         A name of :data:`hexcal.estimation.registry.ESTIMATORS` (default ``"ml"``).
     mask : array_like of bool, shape (48,), optional

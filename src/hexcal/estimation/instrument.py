@@ -2,10 +2,10 @@
 maximum likelihood with the gauges removed, and report under the gauge convention.
 
 :func:`identify_instrument` is the entry ``hexcal identify --setup`` wires: it takes the
-nominal geometry, the data (:class:`hexcal.models.targets.TargetMeasurements` or tool poses
-as :class:`hexcal.models.pose.Measurements`) and a :class:`hexcal.models.setup.Setup`.
+nominal geometry, the data (:class:`hexcal.instruments.targets.TargetMeasurements` or tool poses
+as :class:`hexcal.instruments.pose.Measurements`) and a :class:`hexcal.instruments.setup.Setup`.
 
-1. ``instrument_frame: auto``: the frame's start from :func:`hexcal.models.registration.register_frame`.
+1. ``instrument_frame: auto``: the frame's start from :func:`hexcal.instruments.registration.register_frame`.
 2. The gauges (:mod:`hexcal.estimation.gauge`) are found at the start; Levenberg–Marquardt
    varies only the directions orthogonal to them, on the variable-projection likelihood of
    :class:`hexcal.estimation.likelihood.PoseProjection` (poses eliminated, any model).
@@ -41,10 +41,10 @@ from hexcal.estimation.likelihood import PoseProjection
 from hexcal.estimation.model_bounds import gauge_fixed_covariance
 from hexcal.estimation.problem import Problem
 from hexcal.estimation.result import IdentificationResult, rms
-from hexcal.models.base import MeasurementModel
-from hexcal.models.instrument_data import instrument_model
-from hexcal.models.registration import Registration, register_frame
-from hexcal.models.setup import Setup
+from hexcal.instruments.base import MeasurementModel
+from hexcal.instruments.instrument_data import instrument_model
+from hexcal.instruments.registration import Registration, register_frame
+from hexcal.instruments.setup import Setup
 
 
 def instrument_parameters(

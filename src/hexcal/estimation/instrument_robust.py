@@ -31,9 +31,9 @@ from hexcal.estimation.instrument import InstrumentResult, identify_instrument, 
 from hexcal.estimation.likelihood import PoseProjection
 from hexcal.estimation.problem import Problem
 from hexcal.estimation.robust import DEFAULT_ALPHA, MAX_LEVERAGE
-from hexcal.models.instrument_data import instrument_model
-from hexcal.models.setup import Setup
-from hexcal.models.targets import TargetMeasurements
+from hexcal.instruments.instrument_data import instrument_model
+from hexcal.instruments.setup import Setup
+from hexcal.instruments.targets import TargetMeasurements
 
 
 @dataclass(frozen=True)

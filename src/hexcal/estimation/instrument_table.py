@@ -22,12 +22,12 @@ from hexcal.estimation.gauge import gauge_freedoms, unidentifiable
 from hexcal.estimation.instrument import instrument_parameters
 from hexcal.estimation.model_bounds import gauge_fixed_covariance, projected_jacobian
 from hexcal.estimation.problem import Problem
-from hexcal.models.instrument_data import (
+from hexcal.instruments.instrument_data import (
     instrument_model,
     simulate_target_measurements,
     simulate_tool_measurements,
 )
-from hexcal.models.setup import Setup
+from hexcal.instruments.setup import Setup
 
 #: The frame the table's instrument stands in (any frame gives the same ranks).
 TABLE_FRAME = np.array([2500.0, -800.0, 300.0, 0.1, -0.2, 0.6])

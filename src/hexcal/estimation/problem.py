@@ -36,9 +36,9 @@ from hexcal.core.parameters import (
     select_parameters,
 )
 from hexcal.errors import IdentificationError, UsageError
-from hexcal.models.base import MeasurementModel
-from hexcal.models.legs import check_variant, leg_parameter_jacobian, leg_residuals, pose_frames
-from hexcal.models.pose import FullPoseModel, Measurements
+from hexcal.instruments.base import MeasurementModel
+from hexcal.instruments.legs import check_variant, leg_parameter_jacobian, leg_residuals, pose_frames
+from hexcal.instruments.pose import FullPoseModel, Measurements
 
 Functions = tuple[
     Callable[[NDArray[np.float64]], NDArray[np.float64]], Callable[[NDArray[np.float64]], NDArray]
@@ -54,9 +54,9 @@ class Problem:
         Start values of the machine parameters (the nominal geometry).
     data
         Observations in the form the model reads (for the default full-pose model,
-        :class:`hexcal.models.pose.Measurements`).
+        :class:`hexcal.instruments.pose.Measurements`).
     model : MeasurementModel, optional
-        Default :class:`hexcal.models.pose.FullPoseModel`.
+        Default :class:`hexcal.instruments.pose.FullPoseModel`.
     mask : array_like of bool, optional
         Varied parameters: 48 flags of the machine, or one per parameter of the set.
         Default the machine's joints and ``l0`` and all the model's parameters.

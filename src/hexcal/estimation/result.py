@@ -1,6 +1,6 @@
 """The one result type of every estimator, :class:`IdentificationResult`, and how it is built.
 
-Imports :mod:`hexcal.core`, :mod:`hexcal.models` and :mod:`hexcal.estimation.problem`.
+Imports :mod:`hexcal.core`, :mod:`hexcal.instruments` and :mod:`hexcal.estimation.problem`.
 """
 
 from __future__ import annotations

@@ -44,7 +44,7 @@ from hexcal.estimation.bounds import LEG_SIGMA_FLOOR, residual_covariances
 from hexcal.estimation.problem import Problem
 from hexcal.estimation.registry import get_estimator
 from hexcal.estimation.result import IdentificationResult
-from hexcal.models.pose import Measurements
+from hexcal.instruments.pose import Measurements
 
 #: Family-wise false alarm rate of the outlier test over all poses of a data set.
 DEFAULT_ALPHA = 0.01

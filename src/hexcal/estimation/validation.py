@@ -25,7 +25,7 @@ from hexcal.core.kinematics import (
     pose_errors,
 )
 from hexcal.errors import ValidationError
-from hexcal.models.pose import Measurements
+from hexcal.instruments.pose import Measurements
 
 
 @dataclass(frozen=True, eq=False)

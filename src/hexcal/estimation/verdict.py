@@ -37,7 +37,7 @@ from hexcal.core.kinematics import pose_jacobian_from_arrays
 from hexcal.core.parameters import N_ALL_PARAMETERS, PARAMETER_NAMES
 from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.errors import HexcalError
-from hexcal.models.legs import leg_parameter_jacobian, pose_frames
+from hexcal.instruments.legs import leg_parameter_jacobian, pose_frames
 
 #: Default limits of the predicted σ of a parameter combination (per unit of the
 #: normalised combination): 1 mm for lengths, 1e-3 for gains. ``assess(sigma_limit=k)``

@@ -9,7 +9,7 @@ import yaml
 
 from hexcal.errors import InputError
 from hexcal.io.files import atomic_write, plain
-from hexcal.models.setup import Setup
+from hexcal.instruments.setup import Setup
 
 
 def load_setup(path: str | os.PathLike[str]) -> Setup:

@@ -100,7 +100,7 @@ def instrument_text(data: dict[str, Any], **_options: Any) -> str:
 
 
 def instrument_validation_dict(results: dict[str, Any], kind: str) -> dict[str, Any]:
-    """``results``: label -> :class:`hexcal.models.instrument_data.InstrumentValidation`."""
+    """``results``: label -> :class:`hexcal.instruments.instrument_data.InstrumentValidation`."""
     return {
         "kind": kind,
         "results": {

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from hexcal.core import N_BASE_PARAMETERS, Geometry, NoiseModel, select_parameters
 from hexcal.errors import IdentificationError
-from hexcal.models import Measurements
+from hexcal.instruments import Measurements
 from hexcal.simulation.protocol import CampaignData
 from hexcal.simulation.runner import Executor, Progress, map_trials
 

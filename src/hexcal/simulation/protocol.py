@@ -37,7 +37,7 @@ from hexcal.core import (
     pose_errors,
 )
 from hexcal.errors import SimulationError
-from hexcal.models import Measurements
+from hexcal.instruments import Measurements
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ at the true pose ``(o, R_P)`` with the instrument frame ``(R_F, t_F)``: three re
 target seen. Noise: each coordinate of a target has the standard deviation of
 :class:`~hexcal.core.noise.NoiseModel`'s ``position`` (independent, isotropic).
 
->>> from hexcal.models.setup import Setup
+>>> from hexcal.instruments.setup import Setup
 >>> model = TargetModel(Setup(np.zeros(6), {"t1": [0, 0, 60]}))
 >>> model.predict(model.setup.vector(), np.zeros((2, 6)), "XYZ")
 array([[ 0.,  0., 60.],
@@ -28,9 +28,9 @@ from hexcal.core.kinematics import forward_kinematics, leg_lengths
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import UsageError
-from hexcal.models.base import MeasurementModel
-from hexcal.models.legs import pose_frames
-from hexcal.models.setup import Setup, frame_transform, transform_frame
+from hexcal.instruments.base import MeasurementModel
+from hexcal.instruments.legs import pose_frames
+from hexcal.instruments.setup import Setup, frame_transform, transform_frame
 
 
 @dataclass(frozen=True, eq=False)
@@ -143,7 +143,7 @@ class TargetModel(FramedModel):
     """Target positions in the instrument frame: ``3 n`` values per pose, any subset present.
 
     Setup parameters: the instrument frame (6), then the targets (``3 n``), see
-    :mod:`hexcal.models.setup`.
+    :mod:`hexcal.instruments.setup`.
     """
 
     name = "targets"

@@ -17,7 +17,7 @@ from hexcal.core.conventions import as_poses
 from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.errors import UsageError
-from hexcal.models.base import MeasurementModel
+from hexcal.instruments.base import MeasurementModel
 
 
 @dataclass(frozen=True, eq=False)

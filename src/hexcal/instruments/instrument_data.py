@@ -19,10 +19,10 @@ from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
 from hexcal.core.noise import NoiseModel
 from hexcal.errors import SimulationError, ValidationError
-from hexcal.models.pose import Measurements
-from hexcal.models.setup import Setup
-from hexcal.models.targets import TargetMeasurements, TargetModel
-from hexcal.models.tool import ToolModel
+from hexcal.instruments.pose import Measurements
+from hexcal.instruments.setup import Setup
+from hexcal.instruments.targets import TargetMeasurements, TargetModel
+from hexcal.instruments.tool import ToolModel
 
 
 def instrument_model(setup: Setup) -> TargetModel | ToolModel:

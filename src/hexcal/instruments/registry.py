@@ -9,10 +9,10 @@ True
 from __future__ import annotations
 
 from hexcal.errors import UsageError
-from hexcal.models.base import MeasurementModel
-from hexcal.models.pose import FullPoseModel
-from hexcal.models.targets import TargetModel
-from hexcal.models.tool import ToolModel
+from hexcal.instruments.base import MeasurementModel
+from hexcal.instruments.pose import FullPoseModel
+from hexcal.instruments.targets import TargetModel
+from hexcal.instruments.tool import ToolModel
 
 #: Measurement model classes by name.
 MODELS: dict[str, type[MeasurementModel]] = {

@@ -24,9 +24,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.geometry import Geometry
 from hexcal.errors import IdentificationError
-from hexcal.models.legs import pose_frames
-from hexcal.models.setup import Setup, frame_transform, matrix_to_euler
-from hexcal.models.targets import fk_start_poses
+from hexcal.instruments.legs import pose_frames
+from hexcal.instruments.setup import Setup, frame_transform, matrix_to_euler
+from hexcal.instruments.targets import fk_start_poses
 
 #: Length of the tool axes added as points when a pose instrument is registered (mm).
 TOOL_AXIS_LENGTH = 100.0

@@ -3,7 +3,7 @@ instrument's frame (6-DOF laser trackers, cameras, motion capture).
 
 The tool ``T = (t_T, R_T)`` (platform frame) at the true platform pose ``(o, R_P)`` is seen at
 position ``R_F (o + R_P t_T) + t_F`` and orientation ``R = R_F R_P R_T``. The data are read
-like a full-pose measurement file (:class:`hexcal.models.pose.Measurements`), as the tool's
+like a full-pose measurement file (:class:`hexcal.instruments.pose.Measurements`), as the tool's
 pose in the instrument frame. Noise: the pose noise of the
 :class:`~hexcal.core.noise.NoiseModel` (``position`` per coordinate, ``orientation`` per Euler
 angle, or the full ``pose_covariance``), as for the full-pose model.
@@ -28,10 +28,10 @@ from hexcal.core.conventions import euler_axes, rotation_matrices
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import UsageError
-from hexcal.models.legs import pose_frames
-from hexcal.models.pose import Measurements
-from hexcal.models.setup import Setup, frame_transform, matrix_to_euler
-from hexcal.models.targets import FramedModel, cross_axes
+from hexcal.instruments.legs import pose_frames
+from hexcal.instruments.pose import Measurements
+from hexcal.instruments.setup import Setup, frame_transform, matrix_to_euler
+from hexcal.instruments.targets import FramedModel, cross_axes
 
 
 def rotation_vectors(matrices: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -47,7 +47,7 @@ class ToolModel(FramedModel):
 
     Setup parameters: the instrument frame (6), then the tool (6).
 
-    >>> from hexcal.models.setup import Setup
+    >>> from hexcal.instruments.setup import Setup
     >>> model = ToolModel(Setup(np.zeros(6), tool=[0, 0, 60, 0, 0, 0]))
     >>> model.predict(model.setup.vector(), np.zeros((1, 6)), "XYZ").round(9) + 0.0
     array([[ 0.,  0., 60.,  0.,  0.,  0.]])

@@ -6,7 +6,7 @@ instrument setup's that the model adds) and the true platform pose ``P_j`` (a nu
 parameter). A model predicts the instrument values ``h(θ, P_j)`` and gives their Jacobians
 with respect to the setup parameters and to the pose, which observation values are present
 (a laser tracker loses a target now and then), and their noise covariance. The leg
-equations (:mod:`hexcal.models.legs`) are the same for every model, so a new instrument is
+equations (:mod:`hexcal.instruments.legs`) are the same for every model, so a new instrument is
 one new subclass of :class:`MeasurementModel`.
 
 Imports :mod:`hexcal.core` only.
