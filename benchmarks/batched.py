@@ -31,7 +31,7 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import workspace_corners
 from hexcal.estimation.batched import estimate_batch
-from hexcal.estimation.fitting import estimate
+from hexcal.calibration.identify import estimate
 from hexcal.instruments.pose import Measurements
 
 SEED = 20261130

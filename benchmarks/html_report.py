@@ -29,7 +29,7 @@ from browser_support import CHROMIUM_ARGS, chromium_path
 from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses
-from hexcal.estimation import estimate
+from hexcal.calibration import estimate
 from hexcal.instruments.pose import Measurements
 from hexcal.report.html_reports import identification_report, render_html
 from hexcal.simulation import simulate_measurements

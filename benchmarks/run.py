@@ -43,7 +43,7 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.errors import IdentificationError
-from hexcal.estimation.fitting import estimate
+from hexcal.calibration.identify import estimate
 from hexcal.instruments.pose import Measurements
 
 BENCHMARKS = ("ik", "fk", "identify", "ml", "identify-cli", "cli")

@@ -6,7 +6,7 @@ machine ~1 mm from it), a tracker metres away at an arbitrary rotation (``auto``
 from the data), targets known to ~2 mm, 8 % of the target observations lost, normal noise
 (legs σ 5 µm, target coordinates σ 15 µm), 60 poses. It prints
 
-1. the identifiability table (README) of :mod:`hexcal.estimation.instrument_table`;
+1. the identifiability table (README) of :mod:`hexcal.design.instrument_table`;
 2. speed: identification from 100 poses with three targets (target at most 1 s), best of 5,
    and its ratio to the full-pose maximum-likelihood fit of the same poses timed in this run;
 3. Monte Carlo over ``--trials`` noise draws, for one and three targets: the RMS error of
@@ -33,11 +33,11 @@ import numpy as np
 from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses
-from hexcal.estimation import estimate
+from hexcal.calibration import estimate
 from hexcal.estimation.gauge import apply_convention, gauge_freedoms
 from hexcal.estimation.instrument import identify_instrument, instrument_parameters
-from hexcal.estimation.instrument_table import format_table, instrument_identifiability
-from hexcal.estimation.model_bounds import model_cramer_rao
+from hexcal.design.instrument_table import format_table, instrument_identifiability
+from hexcal.estimation.uncertainty import model_cramer_rao
 from hexcal.estimation.problem import Problem
 from hexcal.instruments.instrument_data import (
     predict_instrument,

@@ -12,11 +12,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hexcal.calibration import estimate
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import select_parameters
 from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.errors import IdentificationError, UsageError
-from hexcal.estimation import estimate
 from hexcal.estimation.batched import (
     STATUS_CONVERGED,
     STATUS_MAX_ITER,

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from browser_support import browser, open_report, screenshot  # noqa: F401  (fixture)
+from hexcal.calibration import estimate, validate
 from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import workspace_corners
-from hexcal.estimation import estimate, validate
 from hexcal.instruments.pose import Measurements
 from hexcal.report.html_reports import identification_report, render_html, validation_report
 from hexcal.simulation import simulate_measurements

@@ -7,14 +7,14 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy import stats
 
+from hexcal.calibration.identify import estimate
 from hexcal.core.kinematics import inverse_kinematics, leg_readings
+from hexcal.core.machine import VARIANTS as METHODS
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import PARAMETER_NAMES, PARAMETER_SCALE, select_parameters
 from hexcal.core.workspace import random_poses
 from hexcal.errors import IdentificationError
-from hexcal.estimation.fitting import estimate
 from hexcal.estimation.problem import identification_jacobian, identification_residuals
-from hexcal.instruments.legs import VARIANTS as METHODS
 from hexcal.instruments.pose import Measurements
 
 # true leg gains off by about 1e-3 (a leg moving 300 mm then errs by about 0.3 mm)

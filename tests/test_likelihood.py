@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from hexcal.calibration.identify import estimate
 from hexcal.cli import CommandError, parse_noise
 from hexcal.core.kinematics import leg_vectors
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import select_parameters
 from hexcal.core.workspace import workspace_corners
 from hexcal.errors import IdentificationError
-from hexcal.estimation.bounds import bound_mean_abs_error, cramer_rao_covariance, fisher_information
-from hexcal.estimation.fitting import estimate
+from hexcal.estimation.uncertainty import bound_mean_abs_error, cramer_rao_covariance, fisher_information
 from hexcal.instruments.pose import Measurements
 from hexcal.simulation import simulate_measurements
 
@@ -66,8 +66,8 @@ def test_cramer_rao_bound_matches_brute_force_fisher_information(true_machine, c
 
 def test_fisher_information_of_leg_noise_only_is_plain_least_squares_information(true_machine, corner_poses):
     """Without pose noise the information is AᵀA / σ² with A the identification Jacobian."""
-    from hexcal.estimation.bounds import planned_measurements
     from hexcal.estimation.problem import identification_jacobian
+    from hexcal.estimation.uncertainty import planned_measurements
 
     noise = NoiseModel(leg=0.02, position=0, orientation=0, distribution="normal")
     a = identification_jacobian(true_machine, planned_measurements(true_machine, corner_poses))

@@ -26,12 +26,12 @@ import numpy as np
 import pytest
 
 import linuxcnc_sim
+from hexcal.calibration import estimate
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import select_parameters
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses, workspace_corners
-from hexcal.estimation import estimate
 from hexcal.io.linuxcnc import (
     GENHEXKINS_DEFAULT_BASE,
     GENHEXKINS_DEFAULT_PLATFORM,

@@ -8,13 +8,14 @@ import numpy as np
 import pytest
 from tests.conftest import simulate_measurements
 
+from hexcal.calibration.identify import estimate
 from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses
 from hexcal.errors import UsageError
-from hexcal.estimation.fitting import estimate
 from hexcal.estimation.likelihood import fit_ml
-from hexcal.estimation.noise_estimation import NOISE_FLOORS, check_noise, estimate_noise
+from hexcal.estimation.noise_check import check_noise
+from hexcal.estimation.noise_estimation import NOISE_FLOORS, estimate_noise
 from hexcal.estimation.problem import Problem
 
 NOMINAL, TRUE = preset("paper-hmt"), preset("paper-hmt-true")

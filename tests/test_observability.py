@@ -19,6 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
+from hexcal.calibration import estimate, pose_error_map, predicted_pose_errors, rotation_vector_map
 from hexcal.core import (
     PARAMETER_NAMES,
     NoiseModel,
@@ -37,13 +38,10 @@ from hexcal.design import (
     numerical_rank,
     observability_indices,
     planning_jacobian,
-    pose_error_map,
-    predicted_pose_errors,
-    rotation_vector_map,
     unidentifiable_combinations,
 )
 from hexcal.errors import IdentificationError
-from hexcal.estimation import cramer_rao_covariance, estimate, residual_covariances
+from hexcal.estimation import cramer_rao_covariance, residual_covariances
 
 NAMES42 = PARAMETER_NAMES[:42]
 

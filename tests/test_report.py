@@ -9,10 +9,10 @@ import math
 import numpy as np
 import pytest
 
+from hexcal.calibration import estimate, validate
 from hexcal.core import NoiseModel, preset, select_parameters, workspace_corners
 from hexcal.design import analyse_poses
 from hexcal.design.planning import StrategyComparison, compare_strategies, feasible_corners, optimal_poses
-from hexcal.estimation import estimate, validate
 from hexcal.report import (
     RENDERERS,
     format_identification_report,

@@ -4,27 +4,27 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
-
-from conftest import simulate_measurements
-from hexcal.core.noise import NoiseModel
-from hexcal.core.presets import preset
-from hexcal.errors import IdentificationError
-from hexcal.estimation import estimate
-from hexcal.estimation.gauge import apply_convention, gauge_freedoms
 from hexcal.estimation.instrument import identify_instrument, instrument_parameters
-from hexcal.estimation.model_bounds import model_cramer_rao
-from hexcal.estimation.problem import Problem
 from hexcal.instruments.instrument_data import (
     predict_instrument,
     simulate_target_measurements,
     simulate_tool_measurements,
     validate_instrument,
 )
+from hexcal.instruments.tool import ToolModel
+from scipy.spatial.transform import Rotation
+
+from conftest import simulate_measurements
+from hexcal.calibration import estimate
+from hexcal.core.noise import NoiseModel
+from hexcal.core.presets import preset
+from hexcal.errors import IdentificationError
+from hexcal.estimation.gauge import apply_convention, gauge_freedoms
+from hexcal.estimation.problem import Problem
+from hexcal.estimation.uncertainty import model_cramer_rao
 from hexcal.instruments.registration import register_frame
 from hexcal.instruments.setup import Setup
 from hexcal.instruments.targets import TargetModel
-from hexcal.instruments.tool import ToolModel
 from tracker_cases import general_machines, poses, tracker_setups
 
 NOISE = NoiseModel(leg=0.005, position=0.015, orientation=2e-5, distribution="normal")
@@ -158,7 +158,7 @@ def test_too_few_poses_for_one_target_refused(machines):
 
 
 def test_model_bound_of_the_full_pose_model_is_the_existing_bound():
-    from hexcal.estimation.bounds import cramer_rao_covariance, planned_measurements
+    from hexcal.estimation.uncertainty import cramer_rao_covariance, planned_measurements
 
     nominal = preset("paper-hmt")
     commanded = poses(nominal, 30, 3)

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from hexcal.errors import InputError, InputWarning
-from hexcal.io.setup_file import load_setup, save_setup
-from hexcal.io.target_files import read_target_measurements, read_tool_measurements, write_target_measurements
 from hexcal.instruments.setup import Setup
 from hexcal.instruments.targets import TargetMeasurements
+from hexcal.io.setup_file import load_setup, save_setup
+from hexcal.io.target_files import read_target_measurements, read_tool_measurements, write_target_measurements
 
 SETUP = Setup(None, {"t1": [0.0, 0.0, 60.0], "t2": [120.0, 0.0, 60.0]})
 HEADER = ["id", "dl1", "dl2", "dl3", "dl4", "dl5", "dl6", "t1.x", "t1.y", "t1.z", "t2.x", "t2.y", "t2.z"]

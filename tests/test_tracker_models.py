@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hexcal.instruments.tool import ToolModel
 
 from hexcal.errors import InputError, UsageError
 from hexcal.instruments.registry import model_by_name
 from hexcal.instruments.setup import Setup
 from hexcal.instruments.targets import TargetMeasurements, TargetModel
-from hexcal.instruments.tool import ToolModel
 from tracker_cases import TARGETS3, general_machines
 
 FRAME = np.array([2500.0, -800.0, 300.0, 0.3, -1.1, 2.5])

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from hexcal.core.noise import NoiseModel
 from hexcal.estimation.instrument import identify_instrument
 from hexcal.estimation.instrument_robust import identify_instrument_robust, instrument_diagnostics
 from hexcal.instruments.instrument_data import simulate_target_measurements
+
+from hexcal.core.noise import NoiseModel
 from hexcal.instruments.targets import TargetMeasurements
 from tracker_cases import general_machines, poses, tracker_setups
 

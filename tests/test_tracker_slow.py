@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hexcal.estimation.instrument import identify_instrument, instrument_parameters
+from hexcal.instruments.instrument_data import simulate_target_measurements, true_poses
 
 from hexcal.core.noise import NoiseModel
 from hexcal.estimation.gauge import apply_convention, gauge_freedoms
-from hexcal.estimation.instrument import identify_instrument, instrument_parameters
-from hexcal.estimation.model_bounds import information_blocks, model_cramer_rao
 from hexcal.estimation.problem import Problem
-from hexcal.instruments.instrument_data import simulate_target_measurements, true_poses
+from hexcal.estimation.uncertainty import information_blocks, model_cramer_rao
 from hexcal.instruments.targets import TargetModel
 from tracker_cases import general_machines, poses, tracker_setups
 

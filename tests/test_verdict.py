@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 from tests.conftest import simulate_measurements
 
+from hexcal.calibration.identify import estimate
+from hexcal.calibration.verdict import predicted_pose_accuracy, undetermined
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import select_parameters
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.errors import IdentificationError
-from hexcal.estimation.fitting import estimate
-from hexcal.estimation.verdict import predicted_pose_accuracy, undetermined
 from hexcal.instruments.pose import Measurements
 
 NOMINAL, TRUE = preset("paper-hmt"), preset("paper-hmt-true")

@@ -26,6 +26,8 @@ from scipy import stats
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
+from hexcal.calibration.identify import estimate
+from hexcal.calibration.validation import validate
 from hexcal.core.compensation import compensate
 from hexcal.core.conventions import rotation_matrices
 from hexcal.core.geometry import Geometry
@@ -34,11 +36,9 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import PARAMETER_NAMES, select_parameters
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses, workspace_corners
-from hexcal.estimation.fitting import estimate
-from hexcal.estimation.robust import DEFAULT_ALPHA, identify_robust, pose_diagnostics
-from hexcal.estimation.validation import validate
-from hexcal.io import read_measurements, write_measurements
+from hexcal.estimation.outliers import DEFAULT_ALPHA, identify_robust, pose_diagnostics
 from hexcal.instruments.pose import Measurements
+from hexcal.io import read_measurements, write_measurements
 from hexcal.report.text import format_identification_report, identification_summary
 from hexcal.simulation import simulate_measurements
 

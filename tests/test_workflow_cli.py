@@ -19,13 +19,14 @@ import yaml
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy.spatial.transform import Rotation
 
+from hexcal.calibration import estimate
+from hexcal.calibration.validation import validate
 from hexcal.cli import main
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
 from hexcal.core.parameters import PARAMETER_NAMES, select_parameters
 from hexcal.core.presets import preset
 from hexcal.core.workspace import workspace_corners
-from hexcal.estimation import estimate
-from hexcal.estimation.validation import validate
+from hexcal.instruments.pose import Measurements
 from hexcal.io import (
     load_geometry,
     read_legs,
@@ -37,7 +38,6 @@ from hexcal.io import (
     write_poses,
     write_table,
 )
-from hexcal.instruments.pose import Measurements
 
 NOMINAL = preset("paper-hmt")
 TRUE = preset("paper-hmt-true")

@@ -2,7 +2,7 @@
 
 The public API below is lazy (PEP 562): ``import hexcal`` is cheap, and each name loads
 its layer when first used. Layers: :mod:`hexcal.core` -> :mod:`hexcal.instruments` ->
-:mod:`hexcal.estimation` -> :mod:`hexcal.design` -> :mod:`hexcal.simulation` ->
+:mod:`hexcal.estimation` -> :mod:`hexcal.calibration` -> :mod:`hexcal.design` -> :mod:`hexcal.simulation` ->
 :mod:`hexcal.report` -> :mod:`hexcal.io` / :mod:`hexcal.cli`.
 
 A notebook session: the seed paper's machine, the leg lengths of its home pose and back,
@@ -65,14 +65,21 @@ _PUBLIC = {
     "ParameterSet": "core",
     "select_parameters": "core",
     "Measurements": "instruments",
+    "TargetMeasurements": "instruments",
     "MeasurementModel": "instruments",
     "FullPoseModel": "instruments",
+    "ToolModel": "instruments",
+    "TargetModel": "instruments",
+    "Session": "instruments",
+    "Setup": "instruments",
+    "instrument_for": "instruments",
     "NoiseModel": "core",
-    "estimate": "estimation",
+    "estimate": "calibration",
     "ESTIMATORS": "estimation",
     "IdentificationResult": "estimation",
+    "Problem": "estimation",
     "identify_robust": "estimation",
-    "validate": "estimation",
+    "validate": "calibration",
     "compensate": "core",
     "analyse_poses": "design",
     "select_poses": "design",
@@ -81,6 +88,10 @@ _PUBLIC = {
     "run_study": "simulation",
     "load_geometry": "io",
     "save_geometry": "io",
+    "load_setup": "io",
+    "save_setup": "io",
+    "read_target_measurements": "io",
+    "read_tool_measurements": "io",
     "read_measurements": "io",
     "read_poses": "io",
     "write_poses": "io",

@@ -53,7 +53,7 @@ def cmd_identify(args: argparse.Namespace) -> None:
         return identify_with_setup(args)
     import numpy as np
 
-    from hexcal.estimation import estimate
+    from hexcal.calibration import estimate
     from hexcal.io import atomic_write, read_measurements, save_geometry
     from hexcal.report import identification_dict, identification_report_dict, render
 
@@ -126,7 +126,7 @@ def cmd_validate(args: argparse.Namespace) -> None:
         from hexcal.cli.instrument import validate_with_setup
 
         return validate_with_setup(args)
-    from hexcal.estimation import validate
+    from hexcal.calibration import validate
     from hexcal.io import read_measurements, write_table
     from hexcal.report import render, validation_dict, validation_table
 

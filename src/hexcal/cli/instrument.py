@@ -131,8 +131,8 @@ def validate_with_setup(args: argparse.Namespace) -> None:
     """``hexcal validate --setup``: held-out instrument values predicted from leg readings."""
     import numpy as np
 
-    from hexcal.io import write_table
     from hexcal.instruments import validate_instrument
+    from hexcal.io import write_table
     from hexcal.report import render
     from hexcal.report.instrument import instrument_validation_dict
 
@@ -171,8 +171,8 @@ def validate_with_setup(args: argparse.Namespace) -> None:
 
 def synthesize_with_setup(args: argparse.Namespace) -> None:
     """``hexcal synthesize --setup``: a simulated instrument export of a known machine and setup."""
-    from hexcal.io import read_poses, write_measurements, write_target_measurements
     from hexcal.instruments import simulate_target_measurements, simulate_tool_measurements
+    from hexcal.io import read_poses, write_measurements, write_target_measurements
 
     check_outputs(args.out)
     if not 0.0 <= args.missing_rate < 1.0:

@@ -214,7 +214,7 @@ def _as_ml(analysis: Any, geometry: Any, poses: Any, noise: Any, mask: Any, test
 
     import numpy as np
 
-    from hexcal.design import predicted_pose_errors
+    from hexcal.calibration import predicted_pose_errors
     from hexcal.estimation import cramer_rao_covariance
 
     changes: dict[str, Any] = {

@@ -4,12 +4,12 @@
   actually uses (:func:`least_squares_covariance`), beside the Cramér–Rao bound of
   :func:`hexcal.estimation.cramer_rao_covariance`, and its mean absolute error
   (:func:`mean_abs_error`);
-- the first-order map from parameter errors to platform pose errors
-  (:func:`pose_error_map`) and, through it, the predicted pose error after calibration
-  at test poses (:func:`predicted_pose_errors`);
+- the first-order map from parameter errors to platform pose errors and the predicted
+  pose error after calibration are the one formula of :mod:`hexcal.calibration.accuracy`
+  (``pose_error_map``, ``predicted_pose_errors``), which the verdict uses too;
 - all of it for one pose set in :mod:`hexcal.design.analysis`.
 
-Imports :mod:`hexcal.core`, :mod:`hexcal.estimation` and
+Imports :mod:`hexcal.core`, :mod:`hexcal.estimation`, :mod:`hexcal.calibration` and
 :mod:`hexcal.design.identifiability`.
 """
 
@@ -22,11 +22,9 @@ from hexcal.core import (
     Geometry,
     NoiseModel,
     as_poses,
-    euler_axes,
     gram_pinv,
     inverse_kinematics,
     parameter_names,
-    pose_jacobian,
     scaled_svd,
 )
 from hexcal.design.identifiability import planning_jacobian
@@ -121,106 +119,3 @@ def mean_abs_error(covariance: ArrayLike, mask: ArrayLike | None = None) -> floa
     """
     cov = np.asarray(covariance, dtype=float)
     return length_mean_abs(np.sqrt(np.clip(np.diag(cov), 0.0, None)), parameter_names(mask))
-
-
-def pose_error_map(
-    geometry: Geometry, poses: ArrayLike, mask: ArrayLike | None = None
-) -> NDArray[np.float64]:
-    """First-order map from parameter errors to platform pose errors, shape (..., 6, n).
-
-    Parameters
-    ----------
-    geometry : Geometry
-        The controller's (nominal) geometry.
-    poses : array_like, shape (..., 6)
-        Commanded poses.
-    mask : array_like of bool, shape (48,), optional
-        Parameters with errors (default joints and ``l0``).
-
-    Returns
-    -------
-    ndarray, shape (..., 6, n)
-        ``E`` with ``δpose = E δθ`` (mm and rad per parameter unit).
-
-    Notes
-    -----
-    The controller commands the nominal leg readings of a pose; a machine whose
-    parameters differ by ``δθ`` reaches the pose where its leg equations
-    ``r = |o + R s_i - u_i| - (l0_i + g_i dl_i) = 0`` hold. To first order
-    ``J δpose + A δθ = 0``, so ``E = -J⁻¹ A`` with ``J`` the pose Jacobian and ``A`` the
-    identification Jacobian of the leg length residual.
-
-    Examples
-    --------
-    >>> from hexcal.core import preset
-    >>> machine = preset("paper-hmt")
-    >>> pose_error_map(machine, machine.home_pose).shape
-    (6, 42)
-    """
-    poses = as_poses(poses)
-    batch = poses.shape[:-1]
-    flat = poses.reshape(-1, 6)
-    a = planning_jacobian(geometry, flat, mask).reshape(flat.shape[0], 6, -1)
-    jac_inv = np.linalg.inv(pose_jacobian(geometry, flat))
-    out = -np.matmul(jac_inv, a)
-    return out.reshape(batch + out.shape[-2:])
-
-
-def rotation_vector_map(geometry: Geometry, poses: ArrayLike) -> NDArray[np.float64]:
-    """Matrices ``W`` (..., 3, 3) with ``ω = W δ(a, b, c)``: small angle changes to the
-    rotation vector of the orientation error, rad per rad (columns are the Euler axes).
-
-    >>> from hexcal.core import preset
-    >>> machine = preset("paper-hmt")
-    >>> rotation_vector_map(machine, np.zeros(6)).shape
-    (3, 3)
-    """
-    poses = as_poses(poses)
-    return np.swapaxes(euler_axes(poses[..., 3:], geometry.euler), -1, -2)
-
-
-def predicted_pose_errors(
-    geometry: Geometry,
-    test_poses: ArrayLike,
-    covariance: ArrayLike,
-    mask: ArrayLike | None = None,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """RMS position and orientation error after calibration at test poses.
-
-    Parameters
-    ----------
-    geometry : Geometry
-    test_poses : array_like, shape (t, 6)
-    covariance : array_like, shape (n, n)
-        Covariance of the identified parameters (parameter units).
-    mask : array_like of bool, shape (48,), optional
-
-    Returns
-    -------
-    position : ndarray, shape (t,), mm
-        ``sqrt(E[|δp|²])``.
-    orientation : ndarray, shape (t,), rad
-        ``sqrt(E[|ω|²])``, ``ω`` the rotation vector of the orientation error.
-
-    Notes
-    -----
-    A controller with the identified parameters misses a target by
-    ``δpose = E (θ̂ - θ)`` (:func:`pose_error_map`), whose covariance is ``E Σθ Eᵀ``.
-
-    Examples
-    --------
-    >>> from hexcal.core import preset
-    >>> machine = preset("paper-hmt")
-    >>> position, orientation = predicted_pose_errors(machine, [machine.home_pose], np.zeros((42, 42)))
-    >>> position.tolist(), orientation.tolist()
-    ([0.0], [0.0])
-    """
-    tp = as_poses(test_poses).reshape(-1, 6)
-    cov = np.asarray(covariance, dtype=float)
-    e = pose_error_map(geometry, tp, mask)
-    w = rotation_vector_map(geometry, tp)
-    e_pos = e[:, :3]
-    e_rot = np.einsum("tij,tjk->tik", w, e[:, 3:])
-    pos = np.einsum("tip,pq,tiq->t", e_pos, cov, e_pos)
-    rot = np.einsum("tip,pq,tiq->t", e_rot, cov, e_rot)
-    return np.sqrt(np.clip(pos, 0, None)), np.sqrt(np.clip(rot, 0, None))

@@ -16,13 +16,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hexcal.calibration.accuracy import pose_error_map, predicted_pose_errors
 from hexcal.core import PARAMETER_SCALE, Geometry, NoiseModel, as_poses, parameter_names
-from hexcal.design.accuracy import (
-    least_squares_covariance,
-    length_mean_abs,
-    pose_error_map,
-    predicted_pose_errors,
-)
+from hexcal.design.accuracy import least_squares_covariance, length_mean_abs
 from hexcal.design.identifiability import as_mask, format_combination, null_space, planning_jacobian
 from hexcal.design.indices import ObservabilityIndices, observability_indices
 from hexcal.estimation import cramer_rao_covariance, whitened_jacobian

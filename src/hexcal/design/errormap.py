@@ -9,7 +9,7 @@ parameter draws at once.
 
 The controller commands the nominal leg readings of a target pose; a machine with
 parameter errors ``δθ`` reaches another pose. To first order the pose error is
-``E δθ`` with ``E = -J_pose⁻¹ A`` (:func:`hexcal.design.accuracy.pose_error_map`); with
+``E δθ`` with ``E = -J_pose⁻¹ A`` (:func:`hexcal.calibration.accuracy.pose_error_map`); with
 ``method="exact"`` the reached pose is the forward kinematics of the perturbed machine.
 Position error is ``|δp|`` (mm); orientation error the angle of the rotation between the
 target and the reached orientation (rad). The numbers that test the paper's claims are in

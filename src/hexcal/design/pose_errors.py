@@ -3,9 +3,9 @@
 Draws of parameter errors (:func:`parameter_error_draws`) and the platform pose error they
 cause at target poses (:func:`pose_error_samples`: position ``|δp|`` in mm and the angle of
 the orientation error in rad), by the first-order map of
-:func:`hexcal.design.accuracy.pose_error_map` or by the forward kinematics of every
+:func:`hexcal.calibration.accuracy.pose_error_map` or by the forward kinematics of every
 perturbed machine; computed block by block over the poses so that large maps fit in
-memory. Imports :mod:`hexcal.core` and :mod:`hexcal.design.accuracy`.
+memory. Imports :mod:`hexcal.core` and :mod:`hexcal.calibration.accuracy`.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from collections.abc import Iterator
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hexcal.calibration.accuracy import pose_error_map, rotation_vector_map
 from hexcal.core import (
     PARAMETER_SCALE,
     Geometry,
@@ -23,7 +24,6 @@ from hexcal.core import (
     inverse_kinematics,
     orientation_error,
 )
-from hexcal.design.accuracy import pose_error_map, rotation_vector_map
 from hexcal.design.identifiability import as_mask
 
 _CHUNK = 2048  # poses per block of the linear map (with 64 draws; fewer with more draws)

@@ -42,7 +42,7 @@ status (:data:`STATUS_MESSAGES`).
 
 >>> from hexcal.core.presets import preset
 >>> from hexcal.core.workspace import workspace_corners
->>> from hexcal.estimation.bounds import planned_measurements
+>>> from hexcal.estimation.uncertainty import planned_measurements
 >>> nominal, real = preset("paper-hmt"), preset("paper-hmt-true")
 >>> data = planned_measurements(real, workspace_corners(nominal)[::3])   # exact, noise-free
 >>> batch = estimate_batch(nominal, data.readings[None], data.poses[None], "length")

@@ -26,7 +26,7 @@ from hexcal.estimation.batched_solver import (
     rounding_floor,
     update_damping,
 )
-from hexcal.estimation.bounds import LEG_SIGMA_FLOOR, POSE_VARIANCE_FLOOR
+from hexcal.estimation.uncertainty import LEG_SIGMA_FLOOR, POSE_VARIANCE_FLOOR
 
 #: Gauss–Newton iterations and relative step tolerance of the inner pose solve (as in
 #: :mod:`hexcal.estimation.likelihood`).

@@ -30,7 +30,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.core.linalg import scaled_svd
-from hexcal.core.parameters import N_ALL_PARAMETERS
 from hexcal.estimation.problem import Problem
 
 #: The convention, as reports state it.
@@ -62,20 +61,25 @@ def transform_parameters(
     full: NDArray[np.float64],
     base: tuple[NDArray, NDArray] | None = None,
     platform: tuple[NDArray, NDArray] | None = None,
-) -> NDArray[np.float64]:
-    """All parameter values in new base (``p' = R_b p + t_b``) and platform coordinates.
+) -> NDArray[np.float64] | None:
+    """All parameter values in new base (``p' = R_b p + t_b``) and platform coordinates, or
+    None when an instrument is tied to the base frame (no such change exists).
 
-    Predictions do not change (the poses move with the frames); ``l0`` and gains stay.
+    Predictions do not change (the poses move with the frames); the leg model stays.
     """
     eye = (np.eye(3), np.zeros(3))
     (rb, tb), (rp, tp) = base or eye, platform or eye
     out = np.array(full)
-    out[:18] = (full[:18].reshape(6, 3) @ rb.T + tb).ravel()
-    out[18:36] = (full[18:36].reshape(6, 3) @ rp.T + tp).ravel()
-    if len(full) > N_ALL_PARAMETERS:
-        out[N_ALL_PARAMETERS:] = problem.model.transform_setup(
-            full[N_ALL_PARAMETERS:], (rb, tb), (rp, tp), problem.euler
-        )
+    joints = full[problem.joints]
+    u = (joints[:18].reshape(6, 3) @ rb.T + tb).ravel()
+    s = (joints[18:36].reshape(6, 3) @ rp.T + tp).ravel()
+    out[problem.joints] = np.concatenate([u, s])
+    for part in problem.parts:
+        if part.block.stop > part.block.start:
+            moved = part.instrument.transform_setup(full[part.block], (rb, tb), (rp, tp), problem.euler)
+            if moved is None:
+                return None
+            out[part.block] = moved
     return out
 
 
@@ -117,23 +121,25 @@ class Gauge:
 
 
 def gauge_freedoms(problem: Problem, full: NDArray[np.float64]) -> Gauge:
-    """Detect the base and platform gauges of ``problem`` at ``full`` (models with a
-    ``transform_setup`` only; none otherwise)."""
+    """Detect the base and platform gauges of ``problem`` at ``full`` (none where an
+    instrument is tied to the base frame, or a motion touches a parameter held fixed)."""
     mask, scale = problem.mask, problem.scale
     cols, labels = [], []
-    if hasattr(problem.model, "transform_setup"):
-        for k, label in enumerate(GAUGE_LABELS):
-            plus, minus = _motion(k, _STEP), _motion(k, -_STEP)
-            args = ({"base": plus}, {"base": minus}) if k < 6 else ({"platform": plus}, {"platform": minus})
-            diff = transform_parameters(problem, full, **args[0]) - transform_parameters(
-                problem, full, **args[1]
-            )
-            diff /= 2 * _STEP
-            if np.linalg.norm(diff[~mask]) <= _TOUCH_TOL * np.linalg.norm(diff):
-                cols.append(diff[mask] / scale)
-                labels.append(label)
+    # a frame is free only where an instrument's own quantities move with it
+    moving = any(problem.free_in(part.block).any() for part in problem.parts)
+    for k, label in enumerate(GAUGE_LABELS if moving else ()):
+        plus, minus = _motion(k, _STEP), _motion(k, -_STEP)
+        args = ({"base": plus}, {"base": minus}) if k < 6 else ({"platform": plus}, {"platform": minus})
+        hi = transform_parameters(problem, full, **args[0])
+        lo = transform_parameters(problem, full, **args[1])
+        if hi is None or lo is None:
+            break
+        diff = (hi - lo) / (2 * _STEP)
+        if np.linalg.norm(diff[~mask]) <= _TOUCH_TOL * np.linalg.norm(diff):
+            cols.append(diff[mask] / scale)
+            labels.append(label)
     metric = np.zeros(len(mask))
-    metric[:36] = 1.0
+    metric[problem.joints] = 1.0
     gen = np.array(cols).T if cols else np.zeros((int(mask.sum()), 0))
     return Gauge(gen, tuple(labels), metric[mask] * scale**2)
 
@@ -167,10 +173,11 @@ def _kabsch(points: NDArray[np.float64], nominal: NDArray[np.float64]) -> tuple[
 
 def apply_convention(problem: Problem, full: NDArray[np.float64], gauge: Gauge) -> NDArray[np.float64]:
     """Parameter values in the convention's base and platform frames (see module)."""
-    nominal = problem.full0
-    base = _kabsch(full[:18].reshape(6, 3), nominal[:18].reshape(6, 3)) if gauge.base else None
-    plat = _kabsch(full[18:36].reshape(6, 3), nominal[18:36].reshape(6, 3)) if gauge.platform else None
-    return transform_parameters(problem, full, base, plat)
+    joints, nominal = full[problem.joints], problem.full0[problem.joints]
+    base = _kabsch(joints[:18].reshape(6, 3), nominal[:18].reshape(6, 3)) if gauge.base else None
+    plat = _kabsch(joints[18:36].reshape(6, 3), nominal[18:36].reshape(6, 3)) if gauge.platform else None
+    out = transform_parameters(problem, full, base, plat)
+    return full if out is None else out
 
 
 def unidentifiable(

@@ -2,12 +2,13 @@
 
 The errors-in-variables equations of the ``ml`` estimator
 (:meth:`hexcal.estimation.problem.Problem.observation_equations`) have one variance per
-*group* of observations: the leg sensors (``σ_leg²``) and each group of the instrument (for
-the full-pose model ``position`` and ``orientation``; a model's groups are the
-:class:`~hexcal.core.noise.NoiseModel` fields its :meth:`covariance` depends on, so a new
-instrument brings its groups with it). Helmert's variance component estimation in
-Förstner's iterative form (Förstner 1979; Koch, *Parameter Estimation and Hypothesis Testing
-in Linear Models*, 1999, ch. 3.6) alternates
+*group* of observations and per session: the leg sensors (``σ_leg²``) and each group of the
+session's instrument (for a pose instrument ``position`` and ``orientation``, for targets
+their positions; an instrument's groups are the :class:`~hexcal.core.noise.NoiseModel`
+fields its covariance depends on, so a new instrument brings its groups with it). Each
+session has its own groups: an instrument moved, or another instrument, has its own noise.
+Helmert's variance component estimation in Förstner's iterative form (Förstner 1979; Koch,
+*Parameter Estimation and Hypothesis Testing in Linear Models*, 1999, ch. 3.6) alternates
 
 1. the ML fit for the current variances, and
 2. ``σ_g² ← σ_g² Ω_g / r_g``, with ``Ω_g`` the sum of the squared whitened residuals of
@@ -21,8 +22,7 @@ noise), so ``se(σ̂_g) ≈ σ_g / sqrt(2 r_g)``. A group whose variance falls t
 (:data:`MIN_REDUNDANCY`) keeps its start value and is reported as not estimated.
 
 The same ``Ω_g`` and ``r_g`` under a *given* noise model test it
-(:func:`check_noise`): ``Ω_g`` follows approximately χ²(r_g), and ``sqrt(Ω_g / r_g)`` is
-the ratio of the σ the data imply to the given one.
+(:func:`hexcal.estimation.noise_check.check_noise`).
 
 The estimated noise is a normal :class:`~hexcal.core.noise.NoiseModel` (standard
 deviations): with uniform instrument errors of half-width ``a`` it reports ``a / sqrt(3)``.
@@ -30,7 +30,8 @@ deviations): with uniform instrument errors of half-width ``a`` it reports ``a /
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -49,19 +50,21 @@ NOISE_FLOORS = {"leg": 1e-5, "position": 1e-5, "orientation": 1e-8}
 MIN_REDUNDANCY = 2.0
 
 #: Units of each group's σ, for reports.
-NOISE_UNITS = {"leg": "mm", "position": "mm", "orientation": "rad"}
+NOISE_UNITS = {"leg": "mm", "position": "mm", "orientation": "rad", "instrument": ""}
 
 _FIELDS = ("position", "orientation")
 
 
 def instrument_groups(model: Any) -> tuple[str, ...]:
-    """The :class:`NoiseModel` fields the model's instrument covariance depends on."""
-    groups = []
-    for name in _FIELDS:
-        probe = NoiseModel(0.0, **{f: (1.0 if f == name else 0.0) for f in _FIELDS}, distribution="normal")
-        if np.any(np.asarray(model.covariance(probe)) != 0):
-            groups.append(name)
-    return tuple(groups)
+    """The :class:`NoiseModel` fields the instrument's covariance depends on."""
+    return model.noise_groups()
+
+
+def problem_groups(problem: Problem) -> tuple[tuple[int, str], ...]:
+    """The noise groups of a problem: ``(session index, field)``, legs first in each session."""
+    return tuple(
+        (k, name) for k, part in enumerate(problem.parts) for name in ("leg", *part.instrument.noise_groups())
+    )
 
 
 def noise_from_sigmas(groups: tuple[str, ...], sigmas: NDArray[np.float64]) -> NoiseModel:
@@ -75,6 +78,27 @@ def noise_from_sigmas(groups: tuple[str, ...], sigmas: NDArray[np.float64]) -> N
     )
 
 
+def _session_noises(
+    groups: tuple[tuple[int, str], ...], sigmas: NDArray[np.float64], sessions: int
+) -> tuple[NoiseModel, ...]:
+    return tuple(
+        noise_from_sigmas(
+            tuple(name for s, name in groups if s == k),
+            np.array([v for (s, _), v in zip(groups, sigmas, strict=True) if s == k]),
+        )
+        for k in range(sessions)
+    )
+
+
+def group_label(problem: Problem, group: tuple[int, str]) -> str:
+    """How reports name a group: ``leg``, ``position``, ``targets``..., with the session's
+    label when the problem has several."""
+    k, name = group
+    part = problem.parts[k]
+    label = part.instrument.group_labels().get(name, name)
+    return f"{part.label} {label}" if len(problem.parts) > 1 else label
+
+
 @dataclass(frozen=True)
 class GroupStatistics:
     """Whitened residual sums ``Ω_g`` and redundancies ``r_g`` of each group under a noise model."""
@@ -83,6 +107,7 @@ class GroupStatistics:
     omega: NDArray[np.float64]
     redundancy: NDArray[np.float64]
     helmert: NDArray[np.float64] | None = None
+    keys: tuple[tuple[int, str], ...] = ()
 
     @property
     def ratio(self) -> NDArray[np.float64]:
@@ -90,12 +115,12 @@ class GroupStatistics:
         return np.sqrt(self.omega / np.maximum(self.redundancy, 1e-300))
 
 
-def _row_groups(problem: Problem, whitener: NDArray[np.float64], groups: tuple[str, ...]) -> NDArray[np.intp]:
-    """Group index of every whitened row (6 legs then the instrument), ``(6 + k,)``; -1 where a
-    row mixes groups (a full instrument covariance)."""
-    model = problem.model
+def _row_groups(part: Any, whitener: NDArray[np.float64], ids: dict[str, int], leg: int) -> NDArray[np.intp]:
+    """Group index of every whitened row of a session (6 legs then the instrument), ``(6 + k,)``;
+    -1 where a row mixes groups (a full instrument covariance)."""
+    model = part.instrument
     comp = np.full(model.size, -1, dtype=np.intp)
-    for g, name in enumerate(groups[1:], start=1):
+    for name, g in ids.items():
         probe = NoiseModel(0.0, **{f: (1.0 if f == name else 0.0) for f in _FIELDS}, distribution="normal")
         comp[np.diag(np.asarray(model.covariance(probe))) != 0] = g
     # a row may mix components of one group (eigenvectors of a repeated variance), not two
@@ -103,68 +128,101 @@ def _row_groups(problem: Problem, whitener: NDArray[np.float64], groups: tuple[s
     lo = np.min(np.where(nonzero, comp, np.iinfo(np.intp).max), axis=1)
     hi = np.max(np.where(nonzero, comp, -1), axis=1)
     inst = np.where((lo == hi) & (lo >= 0), hi, -1)
-    return np.concatenate([np.zeros(6, dtype=np.intp), inst])
+    return np.concatenate([np.full(6, leg, dtype=np.intp), inst])
 
 
 def _statistics(
-    problem: Problem, inner: Any, x: NDArray[np.float64], groups: tuple[str, ...]
+    problem: Problem, inner: Any, x: NDArray[np.float64], keys: tuple[tuple[int, str], ...]
 ) -> tuple[GroupStatistics, NDArray[np.float64], NDArray[np.float64]]:
     """Group statistics at solver variables ``x``, and the Gauss–Newton data ``(e, J)``."""
-    _, e, b = inner.evaluate(x)
+    evaluated = inner.evaluate(x)
     proj = inner.jacobian(x)
-    q, _ = np.linalg.qr(b)
-    h = np.sum(q**2, axis=2)  # (m, 6 + k): the pose part of the hat matrix
     u, sv, _ = np.linalg.svd(proj, full_matrices=False)
     rank = numerical_rank(sv)
-    h = h + np.sum(u[:, :rank] ** 2, axis=1).reshape(h.shape)
-    present = np.concatenate([np.ones((len(problem), 6), dtype=bool), problem.present], axis=1)
-    r = np.where(present, 1.0 - h, 0.0)
-    rows = _row_groups(problem, inner.whitener, groups)
-    if np.any(rows < 0):  # a full instrument covariance: one instrument group
-        groups = (groups[0], "instrument")
-        rows = np.where(rows < 0, 1, rows)
-    ng = len(groups)
-    omega = np.array([np.sum(e[:, rows == g] ** 2) for g in range(ng)])
-    red = np.array([np.sum(r[:, rows == g]) for g in range(ng)])
-    # Helmert's matrix M_gk = tr(R D_g R D_k), R = I - H, H = P (pose blocks) + G (= U Uᵀ):
-    # tr(D_g D_k) - 2 tr(D_g H D_k) + sum over g x k of H_il², with H² summed blockwise
-    # for P and the cross term, and as tr(U_gᵀU_g U_kᵀU_k) for G
-    ub = u[:, :rank].reshape(len(problem), -1, rank)
-    p_blk = np.einsum("mik,mlk->mil", q, q)
-    g_blk = np.einsum("mik,mlk->mil", ub, ub)
-    sq = (p_blk + g_blk) ** 2 - g_blk**2
-    onehot = rows[:, None] == np.arange(ng)  # (6 + k, ng)
-    w = present[..., None] & onehot[None]  # (m, 6 + k, ng)
-    wf = w.astype(float)
-    block = np.einsum("mig,mil,mlk->gk", wf, sq, wf)
-    grams = np.einsum("mig,mia,mib->gab", wf, ub, ub)  # U_gᵀ U_g
+    u = u[:, :rank]
+    index = {key: g for g, key in enumerate(keys)}
+    ng = len(keys)
+    omega, red = np.zeros(ng), np.zeros(ng)
+    block, grams = np.zeros((ng, ng)), np.zeros((ng, rank, rank))
+    counts, hsum = np.zeros(ng), np.zeros(ng)
+    mixed = False
+    row = 0
+    for k, (part, (_, e, b), pp) in enumerate(zip(problem.parts, evaluated, inner.parts, strict=True)):
+        m, r = e.shape
+        q, _ = np.linalg.qr(b)
+        ub = u[row : row + m * r].reshape(m, r, rank)
+        row += m * r
+        h = np.sum(q**2, axis=2) + np.sum(ub**2, axis=2)  # (m, 6 + k): the hat matrix diagonal
+        present = np.concatenate([np.ones((m, 6), dtype=bool), part.present], axis=1)
+        own = {name: index[(k, name)] for name in part.instrument.noise_groups()}
+        rows = _row_groups(part, pp.whitener, own, index[(k, "leg")])
+        if np.any(rows < 0):  # a full instrument covariance: one instrument group
+            mixed = True
+            break
+        onehot = rows[:, None] == np.arange(ng)  # (6 + k, ng)
+        w = present[..., None] & onehot[None]  # (m, 6 + k, ng)
+        wf = w.astype(float)
+        omega += np.einsum("mig,mi->g", wf, e**2)
+        red += np.einsum("mig,mi->g", wf, 1.0 - h)
+        # Helmert's matrix M_gk = tr(R D_g R D_k), R = I - H, H = P (pose blocks) + G (= U Uᵀ):
+        # tr(D_g D_k) - 2 tr(D_g H D_k) + sum over g x k of H_il², with H² summed blockwise
+        # for P and the cross term, and as tr(U_gᵀU_g U_kᵀU_k) for G
+        p_blk = np.einsum("mik,mlk->mil", q, q)
+        g_blk = np.einsum("mik,mlk->mil", ub, ub)
+        sq = (p_blk + g_blk) ** 2 - g_blk**2
+        block += np.einsum("mig,mil,mlk->gk", wf, sq, wf)
+        grams += np.einsum("mig,mia,mib->gab", wf, ub, ub)  # U_gᵀ U_g
+        counts += w.sum(axis=(0, 1))
+        hsum += np.einsum("mig,mi->g", wf, h)
+    if mixed:
+        return _mixed_statistics(problem, evaluated, u, keys), inner.residuals(x), proj
     full = np.einsum("gab,kba->gk", grams, grams)  # tr(U_gᵀU_g U_kᵀU_k)
-    counts = w.sum(axis=(0, 1)).astype(float)
-    hsum = np.array([np.sum(np.where(w[..., g], h, 0.0)) for g in range(ng)])
     helmert = np.diag(counts - 2 * hsum) + block + full
-    return GroupStatistics(groups, omega, red, helmert), e.ravel(), proj
+    labels = tuple(group_label(problem, key) for key in keys)
+    return GroupStatistics(labels, omega, red, helmert, keys), inner.residuals(x), proj
+
+
+def _mixed_statistics(problem: Problem, evaluated: list, u: NDArray, keys: tuple) -> GroupStatistics:
+    """Legs and one instrument group per session (a full instrument covariance mixes its rows)."""
+    groups, omega, red = [], [], []
+    row = 0
+    for k, (part, (_, e, b)) in enumerate(zip(problem.parts, evaluated, strict=True)):
+        m, r = e.shape
+        q, _ = np.linalg.qr(b)
+        ub = u[row : row + m * r].reshape(m, r, -1)
+        row += m * r
+        h = np.sum(q**2, axis=2) + np.sum(ub**2, axis=2)
+        present = np.concatenate([np.ones((m, 6), dtype=bool), part.present], axis=1)
+        res = np.where(present, 1.0 - h, 0.0)
+        for label, cols in (("leg", slice(0, 6)), ("instrument", slice(6, r))):
+            groups.append((k, label))
+            omega.append(float(np.sum(e[:, cols] ** 2)))
+            red.append(float(np.sum(res[:, cols])))
+    labels = tuple(group_label(problem, key) for key in groups)
+    return GroupStatistics(labels, np.array(omega), np.array(red), None, tuple(groups))
 
 
 def _solver_variables(problem: Problem, result: Any) -> NDArray[np.float64]:
     return (np.asarray(result.values) - problem.full0[problem.mask]) / problem.scale
 
 
-def group_statistics(problem: Problem, noise: NoiseModel, result: Any) -> GroupStatistics:
+def group_statistics(
+    problem: Problem, noise: NoiseModel | Sequence[NoiseModel], result: Any
+) -> GroupStatistics:
     """``Ω_g`` and ``r_g`` of each noise group at the solution of a fit.
 
     Parameters
     ----------
     problem : Problem
-    noise : NoiseModel
+    noise : NoiseModel or one per session
         The noise model the residuals are whitened with.
     result : IdentificationResult
         A fit of ``problem`` (its parameter values are used).
     """
-    from hexcal.estimation.likelihood import PoseProjection
+    from hexcal.estimation.likelihood import Projection
 
-    groups = ("leg", *instrument_groups(problem.model))
-    inner = PoseProjection(problem, noise)
-    return _statistics(problem, inner, _solver_variables(problem, result), groups)[0]
+    inner = Projection(problem, noise)
+    return _statistics(problem, inner, _solver_variables(problem, result), problem_groups(problem))[0]
 
 
 def _helmert_ratio(stats: GroupStatistics, estimated: NDArray[np.bool_]) -> NDArray[np.float64]:
@@ -186,7 +244,8 @@ class NoiseEstimate:
     Attributes
     ----------
     groups : tuple of str
-        ``("leg", "position", "orientation")`` for the full-pose model.
+        ``("leg", "position", "orientation")`` for one full-pose session (with the session's
+        label in front when there are several).
     sigmas, stderr : ndarray, shape (g,)
         σ and its standard error (mm for lengths, rad for angles).
     redundancy : ndarray, shape (g,)
@@ -197,6 +256,8 @@ class NoiseEstimate:
         True where the σ fell to its floor (:data:`NOISE_FLOORS`).
     iterations : int
     converged : bool
+    keys : tuple of (int, str)
+        ``(session, field)`` of every group.
     """
 
     groups: tuple[str, ...]
@@ -207,11 +268,21 @@ class NoiseEstimate:
     floored: NDArray[np.bool_]
     iterations: int
     converged: bool
+    keys: tuple[tuple[int, str], ...] = field(default=())
+
+    @property
+    def noises(self) -> tuple[NoiseModel, ...]:
+        """The estimated noise of each session as normal :class:`NoiseModel`s."""
+        sessions = 1 + max((k for k, _ in self.keys), default=0)
+        return _session_noises(self.keys, self.sigmas, sessions)
 
     @property
     def noise(self) -> NoiseModel:
-        """The estimated noise as a normal :class:`NoiseModel` (standard deviations)."""
-        return noise_from_sigmas(self.groups, self.sigmas)
+        """The estimated noise of the first session (standard deviations)."""
+        return self.noises[0]
+
+    def units(self) -> tuple[str, ...]:
+        return tuple(NOISE_UNITS.get(name, "") for _, name in self.keys)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: ``{group: {"sigma", "stderr", "redundancy", "estimated", "floored", "unit"}}``."""
@@ -222,17 +293,27 @@ class NoiseEstimate:
                 "redundancy": float(self.redundancy[k]),
                 "estimated": bool(self.estimated[k]),
                 "floored": bool(self.floored[k]),
-                "unit": NOISE_UNITS.get(g, ""),
+                "unit": unit,
             }
-            for k, g in enumerate(self.groups)
+            for k, (g, unit) in enumerate(zip(self.groups, self.units(), strict=True))
         }
         out["iterations"], out["converged"] = self.iterations, self.converged
         return out
 
 
+def _start_sigmas(problem: Problem, keys: tuple, start: Any) -> NDArray[np.float64]:
+    if start is None or isinstance(start, NoiseModel):
+        start = (NoiseModel() if start is None else start,) * len(problem.parts)
+    out = []
+    for k, name in keys:
+        sig = dict(zip(("leg", "position", "orientation"), start[k].sigmas, strict=True))
+        out.append(sig[name])
+    return np.array(out)
+
+
 def estimate_noise(
     problem: Problem,
-    start: NoiseModel | None = None,
+    start: NoiseModel | Sequence[NoiseModel] | None = None,
     max_iter: int = 40,
     rtol: float = 1e-3,
     **options: Any,
@@ -242,7 +323,7 @@ def estimate_noise(
     Parameters
     ----------
     problem : Problem
-    start : NoiseModel, optional
+    start : NoiseModel or one per session, optional
         Start values (default the seed paper's noise).
     max_iter : int
         Fit ↔ variance-component iterations at most.
@@ -258,7 +339,7 @@ def estimate_noise(
 
     >>> from hexcal.core.presets import preset
     >>> from hexcal.core.workspace import workspace_corners
-    >>> from hexcal.estimation.bounds import planned_measurements
+    >>> from hexcal.estimation.uncertainty import planned_measurements
     >>> nominal, real = preset("paper-hmt"), preset("paper-hmt-true")
     >>> rng = np.random.default_rng(1)
     >>> data = planned_measurements(real, workspace_corners(nominal))
@@ -267,118 +348,49 @@ def estimate_noise(
     >>> bool(0.7 < est.sigmas[1] / 0.02 < 1.3), bool(0.7 < est.sigmas[2] / 3e-4 < 1.3)
     (True, True)
     """
-    from hexcal.estimation.likelihood import PoseProjection, fit_ml
+    from hexcal.estimation.likelihood import Projection, fit_ml
 
-    start = NoiseModel() if start is None else start
-    groups = ("leg", *instrument_groups(problem.model))
-    sig_all = dict(zip(("leg", "position", "orientation"), start.sigmas, strict=True))
-    floors = np.array([NOISE_FLOORS.get(g, 1e-8) for g in groups])
-    sigmas = np.maximum(np.array([sig_all[g] for g in groups]), floors)
+    keys = problem_groups(problem)
+    n_sessions = len(problem.parts)
+    floors = np.array([NOISE_FLOORS.get(name, 1e-8) for _, name in keys])
+    sigmas = np.maximum(_start_sigmas(problem, keys, start), floors)
     # one converged fit, then Gauss–Newton steps of the parameters interleaved with the
     # variance-component updates (each step is one pose projection, not a whole fit)
-    x = _solver_variables(problem, fit_ml(problem, noise_from_sigmas(groups, sigmas), **options))
+    x = _solver_variables(problem, fit_ml(problem, _session_noises(keys, sigmas, n_sessions), **options))
     poses = None
     converged, it = False, 0
     while it < max_iter:
         it += 1
-        inner = PoseProjection(problem, noise_from_sigmas(groups, sigmas))
+        inner = Projection(problem, _session_noises(keys, sigmas, n_sessions))
         if poses is not None:
-            inner.poses = poses
-        stats, e, jac = _statistics(problem, inner, x, groups)
-        if stats.groups != groups:
+            for part, own in zip(inner.parts, poses, strict=True):
+                part.poses = own
+        stats, e, jac = _statistics(problem, inner, x, keys)
+        if stats.keys != keys:
             raise IdentificationError("variance components need a diagonal instrument covariance")
-        poses = inner.poses
+        poses = [part.poses for part in inner.parts]
         step = np.linalg.lstsq(jac, e, rcond=None)[0]
         x = x - step
         estimated = stats.redundancy >= MIN_REDUNDANCY
         new = np.where(estimated, np.maximum(sigmas * _helmert_ratio(stats, estimated), floors), sigmas)
+        if not np.all(np.isfinite(new)) or not np.all(np.isfinite(x)):
+            break  # the iteration diverges (a gross error): keep the last finite values
         change = float(np.max(np.abs(new / sigmas - 1)))
         sigmas = new
         if change < rtol and float(np.max(np.abs(step), initial=0.0)) < 1e-6:
             converged = True
             break
-    noise = noise_from_sigmas(groups, sigmas)
-    result = fit_ml(problem, noise, **options)
-    stats = group_statistics(problem, noise, result)
+    noises = _session_noises(keys, sigmas, n_sessions)
+    result = fit_ml(problem, noises, **options)
+    stats = group_statistics(problem, noises, result)
     red = stats.redundancy
     estimated = red >= MIN_REDUNDANCY
-    stderr = np.full(len(groups), np.nan)
+    stderr = np.full(len(keys), np.nan)
     if stats.helmert is not None and estimated.any():
         # var(α̂) = 2 M⁻¹ for the variance ratios α (Gaussian noise); σ = sqrt(α) σ₀
         sub = stats.helmert[np.ix_(estimated, estimated)]
         var_alpha = 2 * np.diag(np.linalg.pinv(sub))
         stderr[estimated] = sigmas[estimated] * np.sqrt(np.maximum(var_alpha, 0.0)) / 2
     floored = sigmas <= floors * (1 + 1e-9)
-    estimate = NoiseEstimate(groups, sigmas, stderr, red, estimated, floored, it, converged)
-    return estimate, result.replace(noise=noise)
-
-
-@dataclass(frozen=True)
-class NoiseCheck:
-    """A given noise model tested against the data, per group.
-
-    Attributes
-    ----------
-    groups : tuple of str
-    given : ndarray, shape (g,)
-        σ of the given model (mm, rad).
-    ratio : ndarray, shape (g,)
-        σ the data imply over the given σ.
-    redundancy : ndarray, shape (g,)
-    p_value : ndarray, shape (g,)
-        Two-sided p-value of ``Ω_g`` against χ²(r_g).
-    alpha : float
-    """
-
-    groups: tuple[str, ...]
-    given: NDArray[np.float64]
-    ratio: NDArray[np.float64]
-    redundancy: NDArray[np.float64]
-    p_value: NDArray[np.float64]
-    alpha: float
-
-    @property
-    def disagree(self) -> tuple[str, ...]:
-        """Groups whose σ the data reject at level ``alpha`` (Bonferroni over the groups)."""
-        bad = (self.p_value < self.alpha / len(self.groups)) & (self.redundancy >= MIN_REDUNDANCY)
-        return tuple(g for g, b in zip(self.groups, bad, strict=True) if b)
-
-    def describe(self) -> str:
-        """One line: the groups that disagree and by how much."""
-        if not self.disagree:
-            return "the given noise agrees with the data"
-        parts = []
-        for g in self.disagree:
-            k = self.groups.index(g)
-            unit = NOISE_UNITS.get(g, "")
-            parts.append(
-                f"{g} σ {self.given[k] * self.ratio[k]:.3g} {unit} from the data, "
-                f"{self.given[k]:.3g} {unit} given (× {self.ratio[k]:.3g})"
-            )
-        return "; ".join(parts)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            g: {
-                "given": float(self.given[k]),
-                "ratio": float(self.ratio[k]),
-                "redundancy": float(self.redundancy[k]),
-                "p_value": float(self.p_value[k]),
-                "disagrees": g in self.disagree,
-            }
-            for k, g in enumerate(self.groups)
-        }
-
-
-def check_noise(problem: Problem, noise: NoiseModel, result: Any, alpha: float = 0.01) -> NoiseCheck:
-    """Test a given noise model against the data at the solution ``result`` of an ``ml`` fit
-    under it: per group ``Ω_g ~ χ²(r_g)``, two-sided."""
-    from scipy.special import chdtr
-
-    stats = group_statistics(problem, noise, result)
-    sig_all = dict(zip(("leg", "position", "orientation"), noise.sigmas, strict=True))
-    given = np.array([sig_all.get(g, np.nan) for g in stats.groups])
-    red = np.maximum(stats.redundancy, 1e-9)
-    cdf = chdtr(red, stats.omega)
-    p = np.clip(2 * np.minimum(cdf, 1 - cdf), 0.0, 1.0)
-    return NoiseCheck(stats.groups, given, stats.ratio, stats.redundancy, p, alpha)
+    estimate = NoiseEstimate(stats.groups, sigmas, stderr, red, estimated, floored, it, converged, keys)
+    return estimate, result.replace(noise=noises[0], noises=noises)

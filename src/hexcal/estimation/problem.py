@@ -1,14 +1,16 @@
 """An identification problem, and the one place that maps solver variables to residuals.
 
-A :class:`Problem` binds the start geometry, a measurement model, its data and the
-parameter set (which parameters vary, and their scales). Every estimator, the robust
-fitting and the bounds build their residual and Jacobian functions here:
+A :class:`Problem` binds the start geometry, one or more measurement sessions (each its data
+and the instrument that recorded them, :class:`hexcal.instruments.Session`) and the
+parameter set: the machine's blocks ``joints`` and ``legs`` (shared by every session), then
+each session's instrument block (``setup.0``, ``setup.1``, ...). Every estimator, the robust
+fitting, the noise estimate and the bounds build their residual and Jacobian functions here:
 
 - :meth:`Problem.least_squares_functions`: the leg residuals at the measured poses
   (``length`` or the seed paper's ``paper`` variant), optionally whitened per observation,
-  for models whose observation determines the pose;
-- :meth:`Problem.observation_equations`: the errors-in-variables equations of every
-  observation at given true poses: whitened leg and instrument residuals, their Jacobian
+  for instruments whose observation determines the pose;
+- :meth:`Problem.observation_equations`: the errors-in-variables equations of one session's
+  observations at given true poses: whitened leg and instrument residuals, their Jacobian
   with respect to the varied parameters and to the pose.
 
 The solver varies ``x = (θ - θ_start) / scale`` over the varied parameters
@@ -17,7 +19,8 @@ The solver varies ``x = (θ - θ_start) / scale`` over the varied parameters
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -26,42 +29,158 @@ from numpy.typing import ArrayLike, NDArray
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import pose_jacobian_from_arrays
 from hexcal.core.linalg import null_space, numerical_rank, scaled_svd
-from hexcal.core.parameters import (
-    MIN_POSES,
-    N_ALL_PARAMETERS,
-    PARAMETER_GROUPS,
-    PARAMETER_NAMES,
-    PARAMETER_SCALE,
-    ParameterSet,
-    select_parameters,
-)
+from hexcal.core.machine import check_variant, leg_parameter_jacobian, leg_residuals, pose_frames
+from hexcal.core.parameters import DEFAULT_FIT, ParameterSet, select_parameters
 from hexcal.errors import IdentificationError, UsageError
-from hexcal.instruments.base import MeasurementModel
-from hexcal.instruments.legs import check_variant, leg_parameter_jacobian, leg_residuals, pose_frames
-from hexcal.instruments.pose import FullPoseModel, Measurements
+from hexcal.instruments.base import MeasurementModel, Session
+from hexcal.instruments.registry import full_pose
 
 Functions = tuple[
     Callable[[NDArray[np.float64]], NDArray[np.float64]], Callable[[NDArray[np.float64]], NDArray]
 ]
 
 
+def as_sessions(data: Any, model: MeasurementModel | None = None) -> tuple[Session, ...]:
+    """Sessions of ``data``: a session or a sequence of sessions as they are, or one data set
+    read by ``model`` (default the full pose in the base frame)."""
+    if isinstance(data, Session):
+        return (data,)
+    if isinstance(data, Sequence) and data and all(isinstance(s, Session) for s in data):
+        if model is not None:
+            raise UsageError("give the instrument with each session, not as model=")
+        return tuple(data)
+    return (Session(data, full_pose() if model is None else model),)
+
+
+def session_labels(sessions: Sequence[Session]) -> tuple[str, ...]:
+    """Each session's label (its own, else ``session k``), made unique."""
+    labels: list[str] = []
+    for k, s in enumerate(sessions, start=1):
+        label = s.label or f"session {k}"
+        if label in labels:
+            label = f"{label} ({k})"
+        labels.append(label)
+    return tuple(labels)
+
+
+def _prefixed(params: ParameterSet, prefix: str) -> ParameterSet:
+    """A session's instrument parameters with ``prefix`` on every name and group."""
+    names = tuple(prefix + n for n in params.names)
+    groups = {prefix + g: tuple(prefix + n for n in v) for g, v in params.groups.items()}
+    groups |= {g: tuple(prefix + n for n in v) for g, v in params.groups.items()}  # shared groups
+    return ParameterSet(names, params.values, params.vary, params.scales, groups, params.blocks)
+
+
+def problem_parameters(
+    start: Geometry,
+    sessions: Sequence[Session],
+    mask: ArrayLike | None = None,
+    fit: str | Sequence[str] | None = None,
+    fix: Iterable[str] = (),
+) -> ParameterSet:
+    """The machine's blocks and each session's instrument block, varied as asked.
+
+    ``fit`` names groups (default ``joints,l0`` and every instrument group), ``fix`` names
+    or groups to hold; a ``mask`` over the 48 parameters of linear legs (or over all) replaces
+    ``fit``. Quantities an instrument fixes (its setup's ``fixed``) never vary.
+    """
+    machine = start.machine_parameters(DEFAULT_FIT)
+    many = len(sessions) > 1
+    blocks = []
+    for k, session in enumerate(sessions):
+        own = session.instrument.parameters()
+        own = _prefixed(own, f"session{k + 1}.") if many else own
+        blocks.append((f"setup.{k}", own))
+    params = machine
+    held = []
+    for key, own in blocks:
+        sub = ParameterSet(own.names, own.values, own.vary, own.scales, own.groups, {key: (0, len(own))})
+        params = params + sub
+        held.append(own.vary)
+    instrument_held = np.concatenate([np.ones(len(machine), bool), *held])
+    if mask is not None:
+        flags = np.asarray(mask, dtype=bool)
+        if flags.shape == (len(machine),):
+            flags = np.concatenate([flags, *held]) if held else flags
+        if flags.shape != (len(params),):
+            raise UsageError(f"mask must have shape ({len(machine)},) or ({len(params)},), got {flags.shape}")
+        vary = flags & instrument_held
+    else:
+        if fit is None:
+            instrument_groups = [g for _, own in blocks for g in own.groups if "." not in g]
+            fit = ",".join([DEFAULT_FIT, *dict.fromkeys(instrument_groups)])
+        fix = list(fix)
+        for group in [f for f in fix if f in params.groups]:  # a group name holds the whole group
+            fix.remove(group)
+            fix.extend(params.groups[group])
+        vary = np.array(params.select(fit, fix).vary) & instrument_held
+    if not vary.any():
+        raise UsageError("no parameter left to identify")
+    return params.with_vary(vary)
+
+
+@dataclass(frozen=True, eq=False)
+class Part:
+    """One session inside a problem: its instrument, data arrays and parameter block.
+
+    Attributes
+    ----------
+    session : Session
+    label : str
+    block : slice
+        The instrument's parameters within the full parameter vector.
+    rows : slice
+        Its observations within the problem's (``sum`` over earlier sessions).
+    readings : ndarray, shape (m, 6)
+    observed : ndarray, shape (m, k)
+    present : ndarray of bool, shape (m, k)
+    """
+
+    session: Session
+    label: str
+    block: slice
+    rows: slice
+    readings: NDArray[np.float64]
+    observed: NDArray[np.float64]
+    present: NDArray[np.bool_]
+
+    @property
+    def instrument(self) -> MeasurementModel:
+        return self.session.instrument
+
+    @property
+    def data(self) -> Any:
+        return self.session.data
+
+    @property
+    def complete(self) -> bool:
+        return bool(self.present.all())
+
+    def __len__(self) -> int:
+        return len(self.readings)
+
+
 class Problem:
-    """Start geometry, measurement model, data and parameters of one identification.
+    """Start geometry, measurement sessions and parameters of one identification.
 
     Parameters
     ----------
     start : Geometry
-        Start values of the machine parameters (the nominal geometry).
+        Start values of the machine parameters (the nominal geometry) and its leg model.
     data
-        Observations in the form the model reads (for the default full-pose model,
-        :class:`hexcal.instruments.pose.Measurements`).
+        A :class:`~hexcal.instruments.Session`, a sequence of sessions, or one data set that
+        ``model`` reads (default the full pose in the base frame,
+        :class:`~hexcal.instruments.FullPoseModel`).
     model : MeasurementModel, optional
-        Default :class:`hexcal.instruments.pose.FullPoseModel`.
+        The instrument of ``data`` when it is not a session.
     mask : array_like of bool, optional
-        Varied parameters: 48 flags of the machine, or one per parameter of the set.
-        Default the machine's joints and ``l0`` and all the model's parameters.
+        Varied parameters: one flag per machine parameter (48 for linear legs), or one per
+        parameter of the set. Default the machine's joints and ``l0`` and every instrument
+        parameter its setup does not fix.
     parameters : ParameterSet, optional
-        The whole parameter set (machine first, then the model's), replacing ``mask``.
+        The whole parameter set (machine blocks, then the sessions' blocks), replacing ``mask``.
+    fit, fix
+        Groups to vary and names or groups to hold, instead of ``mask``.
     """
 
     def __init__(
@@ -71,27 +190,46 @@ class Problem:
         model: MeasurementModel | None = None,
         mask: ArrayLike | None = None,
         parameters: ParameterSet | None = None,
+        *,
+        fit: str | Sequence[str] | None = None,
+        fix: Iterable[str] = (),
     ) -> None:
-        self.start, self.data = start, data
-        self.model = FullPoseModel() if model is None else model
+        self.start = start
+        self.sessions = as_sessions(data, model)
         if parameters is None:
-            parameters = _parameter_set(start, self.model, mask)
+            parameters = problem_parameters(start, self.sessions, mask, fit, fix)
         self.parameters = parameters
         self.mask = np.array(parameters.vary)
-        self.machine_mask = self.mask[:N_ALL_PARAMETERS]
         self.scale = np.array(parameters.scales[self.mask])
         self.full0 = np.array(parameters.values)
         self.unpack = parameters.unpacker()
-        self.readings = self.model.readings(data)
-        self.ids = self.model.ids(data)
         self.euler = start.euler
+        self.legs = start.leg_model
+        self.joints, self.leg_block = parameters.span("joints"), parameters.span("legs")
+        self.machine = slice(self.joints.start, self.leg_block.stop)
+        self.machine_mask = self.mask[self.machine]
+        labels = session_labels(self.sessions)
+        parts, start_row = [], 0
+        for k, session in enumerate(self.sessions):
+            inst = session.instrument
+            observed, present = inst.observed(session.data)
+            readings = np.asarray(inst.readings(session.data), dtype=float)
+            rows = slice(start_row, start_row + len(readings))
+            start_row = rows.stop
+            block = parameters.span(f"setup.{k}")
+            parts.append(Part(session, labels[k], block, rows, readings, observed, present))
+        self.parts: tuple[Part, ...] = tuple(parts)
+        self.readings = np.concatenate([p.readings for p in self.parts])
+        many = len(self.parts) > 1
+        self.ids: tuple[str, ...] = tuple(
+            (f"{p.label}:{i}" if many else i) for p in self.parts for i in p.session.ids
+        )
         self._frames: tuple[NDArray, NDArray] | None = None
-        self.observed, self.present = self.model.observed(data)
-        self.complete = bool(self.present.all())
+        self._poses: NDArray[np.float64] | None = None
 
     # -- bookkeeping -------------------------------------------------------------------
     def __len__(self) -> int:
-        return len(self.ids)
+        return len(self.readings)
 
     @property
     def n_free(self) -> int:
@@ -102,30 +240,78 @@ class Problem:
         """Names of the varied parameters."""
         return self.parameters.free_names
 
+    @property
+    def model(self) -> MeasurementModel:
+        """The instrument of a one-session problem."""
+        if len(self.parts) != 1:
+            raise UsageError("this problem has several sessions: use problem.parts")
+        return self.parts[0].instrument
+
+    @property
+    def data(self) -> Any:
+        """The data of a one-session problem."""
+        if len(self.parts) != 1:
+            raise UsageError("this problem has several sessions: use problem.parts")
+        return self.parts[0].data
+
+    @property
+    def determines_pose(self) -> bool:
+        """Whether every session's instrument gives the platform pose by itself."""
+        return all(p.instrument.determines_pose for p in self.parts)
+
+    def free_in(self, block: slice) -> NDArray[np.bool_]:
+        """Which of the varied parameters lie in ``block`` (a mask over the varied ones)."""
+        inside = np.zeros(len(self.mask), dtype=bool)
+        inside[block] = True
+        return inside[self.mask]
+
     def geometry(self, full: NDArray[np.float64]) -> Geometry:
         """The start geometry with the machine parameters of ``full``."""
-        return self.start.with_vector(full[:N_ALL_PARAMETERS])
+        return self.start.with_machine_vector(full[self.machine])
 
-    def setup(self, full: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The model's parameter values in ``full``."""
-        return full[N_ALL_PARAMETERS:]
+    def setup(self, full: NDArray[np.float64], part: Part | None = None) -> NDArray[np.float64]:
+        """A session's instrument parameters in ``full`` (the only session's by default)."""
+        if part is None:
+            if len(self.parts) != 1:
+                raise UsageError("this problem has several sessions: name the session")
+            part = self.parts[0]
+        return full[part.block]
+
+    def instruments(self, full: NDArray[np.float64]) -> tuple[MeasurementModel, ...]:
+        """Every session's instrument with its parameters at ``full``."""
+        return tuple(p.instrument.with_values(full[p.block]) for p in self.parts)
 
     def subset(self, index: ArrayLike) -> Problem:
-        """The same problem on the observations at ``index`` (integer or boolean)."""
+        """The same problem on the observations at ``index`` (integer or boolean, over all
+        sessions' observations in order)."""
         idx = np.arange(len(self))[np.asarray(index)]
-        return Problem(self.start, self.model.subset(self.data, idx), self.model, parameters=self.parameters)
+        sessions = []
+        for p in self.parts:
+            own = idx[(idx >= p.rows.start) & (idx < p.rows.stop)] - p.rows.start
+            sessions.append(p.session.replace(data=p.instrument.subset(p.data, own)))
+        labelled = [s.replace(label=p.label) for s, p in zip(sessions, self.parts, strict=True)]
+        return Problem(self.start, labelled, parameters=self.parameters)
+
+    def leg_dimension(self) -> int:
+        """Varied parameters of the busiest leg (its joints and leg-model parameters)."""
+        from hexcal.core.machine import leg_columns
+
+        cols = leg_columns(self.legs) + self.machine.start
+        return int(np.max(np.sum(self.mask[cols], axis=1)))
 
     def check_size(self) -> None:
         """Refuse data sets too small to determine the varied parameters."""
         m, n = len(self), self.n_free
-        if self.model.measures_pose:
-            min_poses = MIN_POSES + (1 if self.machine_mask[42:].any() else 0)
+        if self.determines_pose:
+            min_poses = self.leg_dimension()
             if m < min_poses:
                 raise IdentificationError(
                     f"{m} poses cannot determine the parameters: at least {min_poses} are needed "
                     f"(each leg has {min_poses} parameters and gets one equation per pose)"
                 )
-        equations = 6 * m if self.model.measures_pose else int(self.present.sum())
+            equations = 6 * m
+        else:
+            equations = int(sum(p.present.sum() for p in self.parts))
         if equations < n:
             raise IdentificationError(f"{equations} equations for {n} parameters: measure more poses")
 
@@ -148,39 +334,46 @@ class Problem:
         order = np.argsort(-np.abs(vector))[:top]
         return " ".join(f"{vector[k]:+.2f}·{self.names[k]}" for k in order)
 
-    # -- measured poses (models that measure the pose) ---------------------------------
+    # -- measured poses (instruments that determine the pose) --------------------------
     def measured_frames(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Rotations and positions of the measured poses (cached)."""
-        if not self.model.measures_pose:
-            raise IdentificationError(
-                f"the {self.model.name} measurement does not determine the platform pose by itself: "
-                "use the ml estimator"
-            )
+        """Rotations and positions of the measured platform poses (cached)."""
         if self._frames is None:
-            self._poses = self.model.start_poses(self.start, self.setup(self.full0), self.data)
-            self._frames = pose_frames(self._poses, self.euler)
+            self._frames = pose_frames(self.measured_poses(), self.euler)
         return self._frames
 
     def measured_poses(self) -> NDArray[np.float64]:
-        """The measured poses ``(m, 6)`` (models that measure the pose)."""
-        self.measured_frames()
+        """The platform poses ``(m, 6)`` the observations give (instruments that determine
+        the pose; :class:`IdentificationError` otherwise)."""
+        if self._poses is None:
+            bad = [p for p in self.parts if not p.instrument.determines_pose]
+            if bad:
+                raise IdentificationError(
+                    f"the {bad[0].instrument.name} measurement does not determine the platform pose by "
+                    "itself: use the ml estimator"
+                )
+            self._poses = np.concatenate(
+                [p.instrument.platform_poses(self.full0[p.block], p.data, self.euler) for p in self.parts]
+            )
         return self._poses
 
     def leg_residuals(self, full: NDArray[np.float64], variant: str = "length") -> NDArray[np.float64]:
         """Leg residuals at the measured poses, ``(m, 6)``."""
         rot, pos = self.measured_frames()
-        return leg_residuals(full[:N_ALL_PARAMETERS], rot, pos, self.readings, variant)
+        return leg_residuals(
+            full[self.joints], full[self.leg_block], self.legs, rot, pos, self.readings, variant
+        )
 
     def leg_jacobian(
         self, full: NDArray[np.float64], variant: str = "length", scaled: bool = True
     ) -> NDArray[np.float64]:
         """Jacobian of :meth:`leg_residuals`, ``(6 m, n_free)``, in solver units (or parameter
-        units when not ``scaled``)."""
+        units when not ``scaled``); instrument parameters do not enter the legs."""
         rot, pos = self.measured_frames()
-        jac = leg_parameter_jacobian(full[:N_ALL_PARAMETERS], rot, pos, self.readings, variant)
-        jac = jac.reshape(-1, N_ALL_PARAMETERS)
-        if len(self.mask) > N_ALL_PARAMETERS:  # model parameters do not enter the legs
-            jac = np.concatenate([jac, np.zeros((jac.shape[0], len(self.mask) - N_ALL_PARAMETERS))], axis=1)
+        machine = leg_parameter_jacobian(
+            full[self.joints], full[self.leg_block], self.legs, rot, pos, self.readings, variant
+        ).reshape(-1, self.machine.stop - self.machine.start)
+        jac = np.zeros((machine.shape[0], len(self.mask)))
+        jac[:, self.machine] = machine
         return jac[:, self.mask] * self.scale if scaled else jac[:, self.mask]
 
     def least_squares_functions(self, variant: str = "length", weights: NDArray | None = None) -> Functions:
@@ -213,13 +406,14 @@ class Problem:
     # -- errors in variables -----------------------------------------------------------
     def observation_equations(
         self,
+        part: Part,
         full: NDArray[np.float64],
         poses: NDArray[np.float64],
         leg_sigma: float,
         instrument_whitener: NDArray[np.float64],
         parameters: bool = True,
     ) -> tuple[NDArray, NDArray, NDArray | None, NDArray]:
-        """Whitened errors-in-variables equations of every observation at true ``poses``.
+        """Whitened errors-in-variables equations of one session's observations at true ``poses``.
 
         Returns
         -------
@@ -234,87 +428,73 @@ class Problem:
         lengths : ndarray, shape (m, 6)
             Leg lengths of the poses on the machine of ``full``.
         """
-        machine, setup = full[:N_ALL_PARAMETERS], self.setup(full)
-        u, s = machine[:18].reshape(6, 3), machine[18:36].reshape(6, 3)
+        joints, setup = full[self.joints], full[part.block]
+        u, s = joints[:18].reshape(6, 3), joints[18:36].reshape(6, 3)
         lengths, jp = pose_jacobian_from_arrays(u, s, poses, self.euler)
-        model_lengths = machine[36:42] + machine[42:48] * self.readings
-        present, w = self.present, instrument_whitener
-        delta = self.model.residual(setup, poses, self.euler, self.observed)
-        if not self.complete:
-            delta = np.where(present, delta, 0.0)
+        model_lengths = self.legs.lengths(full[self.leg_block], part.readings)
+        w, inst = instrument_whitener, part.instrument
+        delta = inst.residual(setup, poses, self.euler, part.observed)
+        complete = part.complete
+        if not complete:
+            delta = np.where(part.present, delta, 0.0)
         e_inst = delta @ w.T
-        dh = self.model.whitened_pose_jacobian(setup, poses, self.euler, w)
-        if not self.complete:
-            e_inst = np.where(present, e_inst, 0.0)
-            dh = np.where(present[..., None], dh, 0.0)
+        dh = inst.whitened_pose_jacobian(setup, poses, self.euler, w)
+        if not complete:
+            e_inst = np.where(part.present, e_inst, 0.0)
+            dh = np.where(part.present[..., None], dh, 0.0)
         e = np.concatenate([(lengths - model_lengths) / leg_sigma, e_inst], axis=1)
         b = np.concatenate([jp / leg_sigma, dh], axis=1)
-        a = None
-        if parameters:
-            a = self.eiv_parameter_jacobian(full, poses, leg_sigma, w)
+        a = self.eiv_parameter_jacobian(part, full, poses, leg_sigma, w) if parameters else None
         return e, b, a, lengths
+
+    def leg_rows(
+        self, part: Part, full: NDArray[np.float64], poses: NDArray[np.float64], variant: str = "length"
+    ) -> NDArray[np.float64]:
+        """Jacobian of one session's leg residuals at ``poses`` with respect to the varied
+        parameters, ``(m, 6, n_free)`` in solver units (instrument parameters do not enter)."""
+        rot, pos = pose_frames(poses, self.euler)
+        legs = leg_parameter_jacobian(
+            full[self.joints], full[self.leg_block], self.legs, rot, pos, part.readings, variant
+        )
+        out = np.zeros((len(poses), 6, self.n_free))
+        in_machine = self.free_in(self.machine)
+        out[:, :, in_machine] = legs[:, :, self.machine_mask] * self.scale[in_machine]
+        return out
 
     def eiv_parameter_jacobian(
         self,
+        part: Part,
         full: NDArray[np.float64],
         poses: NDArray[np.float64],
         leg_sigma: float,
         w: NDArray[np.float64],
     ) -> NDArray[np.float64]:
-        """Jacobian of the observation equations with respect to the varied parameters,
-        ``(m, 6 + k, n_free)`` in solver units (see :meth:`observation_equations`)."""
-        m, k = len(self), self.model.size
-        machine, setup = full[:N_ALL_PARAMETERS], self.setup(full)
-        rot, pos = pose_frames(poses, self.euler)
-        legs = leg_parameter_jacobian(machine, rot, pos, self.readings, "length")
-        a_leg = legs[:, :, self.machine_mask] * (self.scale[: int(self.machine_mask.sum())] / leg_sigma)
-        setup_mask = self.mask[N_ALL_PARAMETERS:]
-        if not setup_mask.any():
-            return np.concatenate([a_leg, np.zeros((m, k, a_leg.shape[-1]))], axis=1)
-        dsetup = np.matmul(w, self.model.setup_jacobian(setup, poses, self.euler))
-        if not self.complete:
-            dsetup = np.where(self.present[..., None], dsetup, 0.0)
-        a_inst = dsetup[:, :, setup_mask] * self.scale[int(self.machine_mask.sum()) :]
-        a_leg = np.concatenate([a_leg, np.zeros((m, 6, a_inst.shape[-1]))], axis=2)
-        a_inst = np.concatenate([np.zeros((m, k, a_leg.shape[-1] - a_inst.shape[-1])), a_inst], axis=2)
-        return np.concatenate([a_leg, a_inst], axis=1)
+        """Jacobian of one session's observation equations with respect to the varied
+        parameters, ``(m, 6 + k, n_free)`` in solver units (see :meth:`observation_equations`)."""
+        m, k = len(part), part.instrument.size
+        out = np.zeros((m, 6 + k, self.n_free))
+        out[:, :6] = self.leg_rows(part, full, poses) / leg_sigma
+        own = self.free_in(part.block)
+        if own.any():
+            setup = full[part.block]
+            dsetup = np.matmul(w, part.instrument.setup_jacobian(setup, poses, self.euler))
+            if not part.complete:
+                dsetup = np.where(part.present[..., None], dsetup, 0.0)
+            out[:, 6:, own] = dsetup[:, :, self.mask[part.block]] * self.scale[own]
+        return out
 
     def observation_counts(self) -> NDArray[np.intp]:
         """Equations per observation after the six pose unknowns: ``6 + present values - 6``."""
-        return self.present.sum(axis=1)
+        return np.concatenate([p.present.sum(axis=1) for p in self.parts])
 
 
-def _parameter_set(start: Geometry, model: MeasurementModel, mask: ArrayLike | None) -> ParameterSet:
-    """The machine's 48 parameters and the model's, varied by ``mask`` (built once: a fit of
-    15 poses takes milliseconds, and this runs for every one of a study's fits)."""
-    extra = model.parameters()
-    flags = np.asarray(select_parameters() if mask is None else mask, dtype=bool)
-    n = N_ALL_PARAMETERS + len(extra)
-    if flags.shape == (N_ALL_PARAMETERS,):
-        flags = np.concatenate([flags, np.ones(len(extra), dtype=bool)])
-    if flags.shape != (n,):
-        raise UsageError(f"mask must have shape (48,) or ({n},), got {flags.shape}")
-    groups = dict(PARAMETER_GROUPS)
-    for key, names in extra.groups.items():
-        groups[key] = groups.get(key, ()) + names
-    return ParameterSet(
-        PARAMETER_NAMES + extra.names,
-        np.concatenate([start.to_vector(gains=True), extra.values]),
-        flags,
-        np.concatenate([PARAMETER_SCALE, extra.scales]),
-        groups,
-    )
-
-
-def measurements_problem(
-    geometry: Geometry, measurements: Measurements, mask: ArrayLike | None = None
-) -> Problem:
+def measurements_problem(geometry: Geometry, measurements: Any, mask: ArrayLike | None = None) -> Problem:
     """A full-pose :class:`Problem` (the form most of hexcal's planning code uses)."""
-    return Problem(geometry, measurements, FullPoseModel(), mask)
+    return Problem(geometry, measurements, full_pose(), mask)
 
 
 def identification_residuals(
-    geometry: Geometry, measurements: Measurements, method: str = "length"
+    geometry: Geometry, measurements: Any, method: str = "length"
 ) -> NDArray[np.float64]:
     """Leg residuals of every measured pose for ``geometry``, shape ``(m, 6)``.
 
@@ -327,7 +507,7 @@ def identification_residuals(
 
 def identification_jacobian(
     geometry: Geometry,
-    measurements: Measurements,
+    measurements: Any,
     method: str = "length",
     mask: ArrayLike | None = None,
 ) -> NDArray[np.float64]:
@@ -339,8 +519,8 @@ def identification_jacobian(
         Parameters at which to evaluate.
     measurements : Measurements
     method : {"length", "paper"}
-    mask : array_like of bool, shape (48,), optional
-        Parameters to keep (columns); default the 42 of joints and l0.
+    mask : array_like of bool, optional
+        Machine parameters to keep (columns); default the joints and ``l0``.
 
     Returns
     -------
@@ -348,5 +528,6 @@ def identification_jacobian(
         Row ``6 j + i`` is pose ``j``, leg ``i``; columns in parameter order.
     """
     check_variant(method)
+    mask = select_parameters() if mask is None else mask
     problem = measurements_problem(geometry, measurements, mask)
     return problem.leg_jacobian(problem.full0, method, scaled=False)

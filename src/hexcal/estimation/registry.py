@@ -53,10 +53,12 @@ class Estimator:
 
     def fit(self, problem: Any, noise: Any = None, **options: Any) -> Any:
         """Run the estimator on a :class:`~hexcal.estimation.problem.Problem`."""
-        if self.needs_pose and not problem.model.measures_pose:
+        if self.needs_pose and not problem.determines_pose:
+            part = next(p for p in problem.parts if not p.instrument.determines_pose)
             raise IdentificationError(
                 f"the {self.name} estimator needs the platform pose measured at every observation; "
-                f"the {problem.model.name} measurement does not give it: use ml"
+                f"{part.label}: the {part.instrument.describe()} does not give it (a free frame or "
+                "tool, or targets): use ml"
             )
         module, _, function = self.function.partition(":")
         return getattr(importlib.import_module(module), function)(problem, noise, **options)

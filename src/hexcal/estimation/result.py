@@ -16,6 +16,7 @@ from hexcal.core.geometry import Geometry
 from hexcal.core.linalg import gram_pinv, numerical_rank, scaled_svd
 from hexcal.core.noise import NoiseModel
 from hexcal.errors import IdentificationError
+from hexcal.estimation.gauge import CONVENTION, Gauge, complement_basis, gauge_projector
 from hexcal.estimation.problem import Problem
 
 
@@ -70,7 +71,7 @@ class IdentificationResult:
     model : str
         Name of the measurement model.
     verdict : Verdict, optional
-        ``pass`` | ``warn`` | ``fail`` with its reasons (:mod:`hexcal.estimation.verdict`).
+        ``pass`` | ``warn`` | ``fail`` with its reasons (:mod:`hexcal.calibration.verdict`).
     noise_source : str
         ``"estimated"`` (learned from the data, :mod:`hexcal.estimation.noise_estimation`)
         or ``"given"``.
@@ -78,6 +79,22 @@ class IdentificationResult:
         The variance components (σ, standard errors, redundancies) when estimated.
     noise_check : NoiseCheck, optional
         The given noise tested against the data, per group.
+    sessions : tuple of str
+        The sessions' labels (one for a single data set).
+    session_sizes : tuple of int
+        Observations of each session.
+    instruments : tuple of MeasurementModel
+        Each session's instrument with its identified values (a calibrated setup).
+    registrations : tuple
+        How each session's unknown frame was registered (None where it was not).
+    gauges : tuple of str
+        The gauge freedoms removed (``base translation x`` ...), empty when none.
+    convention : str
+        The gauge convention the values are reported under ("" without gauges).
+    poses : ndarray, shape (m, 6), optional
+        The estimated true poses (maximum likelihood).
+    noises : tuple of NoiseModel
+        The noise model of each session.
     """
 
     geometry: Geometry
@@ -114,6 +131,19 @@ class IdentificationResult:
     noise_source: str = "given"
     noise_estimate: Any = None
     noise_check: Any = None
+    sessions: tuple[str, ...] = ()
+    session_sizes: tuple[int, ...] = ()
+    instruments: tuple[Any, ...] = ()
+    registrations: tuple[Any, ...] = ()
+    gauges: tuple[str, ...] = ()
+    convention: str = ""
+    poses: NDArray[np.float64] | None = None
+    noises: tuple[NoiseModel, ...] = ()
+
+    @property
+    def setups(self) -> tuple[Any, ...]:
+        """Each session's calibrated setup (None for an instrument without one)."""
+        return tuple(getattr(inst, "setup", None) for inst in self.instruments)
 
     @property
     def verdict_status(self) -> str:
@@ -258,33 +288,47 @@ def finish_result(
     sol: Any,
     dof: int | None = None,
     leg_rms: tuple[float, float] | None = None,
+    gauge: Gauge | None = None,
+    poses: NDArray[np.float64] | None = None,
+    blocks: list[NDArray[np.float64]] | None = None,
+    noises: tuple[NoiseModel, ...] = (),
 ) -> IdentificationResult:
     """Build the result of a converged fit (shared by all estimators).
 
     ``jac_scaled`` is the Jacobian of ``residuals`` with respect to the varied parameters in
     solver units; ``dof`` defaults to ``residuals.size - n``. The covariance is
-    ``s² (JᵀJ)⁺`` from the SVD of the column-normalised Jacobian (as
+    ``s² P (JᵀJ)⁺ Pᵀ`` from the SVD of the column-normalised Jacobian (as
     ``scipy.optimize.curve_fit`` does), with ``s²`` the residual variance per degree of
-    freedom. ``leg_rms`` (before, after) defaults to the leg length residuals at the
-    measured poses.
+    freedom and ``P`` the projector onto the gauge convention (the identity without gauges,
+    :mod:`hexcal.estimation.gauge`). ``leg_rms`` (before, after) defaults to the leg length
+    residuals at the measured poses. ``blocks`` are the residuals of each session when they
+    differ in width.
     """
     n_vary = problem.n_free
-    svd = scaled_svd(jac_scaled)
+    g = 0 if gauge is None else gauge.size
+    svd = scaled_svd(jac_scaled if g == 0 else jac_scaled @ complement_basis(gauge))
     rank = numerical_rank(svd.singular_values)
-    if rank < n_vary:
+    if rank < n_vary - g:
         raise IdentificationError(
-            f"rank-deficient Jacobian at the solution (rank {rank} of {n_vary}; weakest "
-            f"combination: {problem.combination(svd.vt[-1])})"
+            f"rank-deficient Jacobian at the solution (rank {rank} of {n_vary - g}; weakest "
+            f"combination: {problem.combination(svd.vt[-1]) if g == 0 else 'beyond the gauges'})"
         )
-    dof = residuals.size - n_vary if dof is None else dof
+    dof = residuals.size - (n_vary - g) if dof is None else dof
     # an exactly determined fit (dof 0) has no residual to estimate the noise from
     s2 = float(residuals @ residuals) / dof if dof > 0 else float("nan")
-    cov = gram_pinv(svd) * s2 * np.outer(problem.scale, problem.scale)
-    stderr = np.sqrt(np.diag(cov))
-    corr = cov / np.outer(stderr, stderr)
+    if g == 0:
+        cov = gram_pinv(svd) * s2 * np.outer(problem.scale, problem.scale)
+    else:
+        proj = gauge_projector(gauge)
+        cov = proj @ gram_pinv(scaled_svd(jac_scaled)) @ proj.T * s2 * np.outer(problem.scale, problem.scale)
+    stderr = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(stderr, stderr)
     if leg_rms is None:
         leg_rms = (rms(problem.leg_residuals(problem.full0)), rms(problem.leg_residuals(full)))
     mask = problem.mask
+    widths = {b.shape[1] for b in blocks} if blocks else set()
+    shaped = residuals.reshape(len(problem), -1) if len(widths) <= 1 else residuals
     return IdentificationResult(
         geometry=problem.geometry(full),
         start=problem.start,
@@ -298,7 +342,7 @@ def finish_result(
         singular_values=svd.singular_values,
         singular_vectors=svd.vt,
         rank=rank,
-        residuals=residuals.reshape(len(problem), -1),
+        residuals=shaped,
         leg_rms_before=leg_rms[0],
         leg_rms_after=leg_rms[1],
         rms_before=rms_before,
@@ -311,5 +355,12 @@ def finish_result(
         n_poses=len(problem),
         ids=problem.ids,
         dof=dof,
-        model=problem.model.name,
+        model="+".join(dict.fromkeys(p.instrument.name for p in problem.parts)),
+        sessions=tuple(p.label for p in problem.parts),
+        session_sizes=tuple(len(p) for p in problem.parts),
+        instruments=problem.instruments(full),
+        gauges=() if gauge is None else gauge.labels,
+        convention=CONVENTION if g else "",
+        poses=poses,
+        noises=tuple(noises),
     )

@@ -1,6 +1,7 @@
-"""Measurement models: what an instrument measures at a platform pose, the residuals
-and their Jacobians with respect to the parameters and to the true pose, and their noise
-covariance. Imports :mod:`hexcal.core`.
+"""Instruments: what an instrument measures at a platform pose (its parameters, the
+residuals and their Jacobians with respect to the parameters and to the true pose, its noise
+covariance, registration and simulation), the data it records and the sessions of a
+campaign. Imports :mod:`hexcal.core`.
 """
 
 from hexcal._lazy import attach
@@ -11,41 +12,32 @@ __getattr__, __dir__, __all__ = attach(
         "ANGLE_SCALE": "setup",
         "FIXABLE": "setup",
         "FRAME_NAMES": "setup",
-        "FramedModel": "targets",
+        "FramedModel": "framed",
         "FullPoseModel": "pose",
-        "InstrumentValidation": "instrument_data",
         "MODELS": "registry",
         "MeasurementModel": "base",
-        "Measurements": "pose",
+        "Measurements": "data",
         "POSE_SCALES": "setup",
         "Registration": "registration",
         "SETUP_KEYS": "setup",
+        "Session": "base",
         "Setup": "setup",
         "TARGET_NAME": "setup",
-        "TOOL_AXIS_LENGTH": "registration",
         "TOOL_NAMES": "setup",
-        "TargetMeasurements": "targets",
+        "TargetMeasurements": "data",
         "TargetModel": "targets",
-        "ToolModel": "tool",
-        "VARIANTS": "legs",
-        "check_variant": "legs",
-        "cross_axes": "targets",
-        "fk_start_poses": "targets",
+        "ToolModel": "pose",
+        "cross_axes": "framed",
+        "fk_start_poses": "framed",
         "frame_transform": "setup",
-        "instrument_model": "instrument_data",
-        "leg_parameter_jacobian": "legs",
-        "leg_residuals": "legs",
+        "full_pose": "registry",
+        "instrument_for": "registry",
         "matrix_to_euler": "setup",
         "model_by_name": "registry",
-        "pose_frames": "legs",
-        "predict_instrument": "instrument_data",
-        "register_frame": "registration",
+        "register_pose_instrument": "registration",
+        "register_targets": "registration",
         "rigid_fit": "registration",
-        "rotation_vectors": "tool",
-        "simulate_target_measurements": "instrument_data",
-        "simulate_tool_measurements": "instrument_data",
+        "rotation_vectors": "pose",
         "transform_frame": "setup",
-        "true_poses": "instrument_data",
-        "validate_instrument": "instrument_data",
     },
 )

@@ -1,13 +1,20 @@
-"""The measurement-model interface: what an instrument measures at a platform pose.
+"""The instrument interface: what an instrument measures at a platform pose, and a session.
 
 Every observation ``j`` (one measured pose of the machine) has six leg readings and some
 instrument values ``y_j``. Its unknowns are the parameters ``θ`` (the machine's, and the
-instrument setup's that the model adds) and the true platform pose ``P_j`` (a nuisance
-parameter). A model predicts the instrument values ``h(θ, P_j)`` and gives their Jacobians
-with respect to the setup parameters and to the pose, which observation values are present
-(a laser tracker loses a target now and then), and their noise covariance. The leg
-equations (:mod:`hexcal.instruments.legs`) are the same for every model, so a new instrument is
-one new subclass of :class:`MeasurementModel`.
+instrument's own: its frame, a tool, targets) and the true platform pose ``P_j`` (a nuisance
+parameter). A :class:`MeasurementModel` predicts the instrument values ``h(θ, P_j)``, gives
+their Jacobians with respect to its own parameters and to the pose, which values are present
+(a laser tracker loses a target now and then), their noise covariance, a start for what the
+data must register (an unknown frame), and simulated data. The leg equations are the same
+for every instrument (:mod:`hexcal.core.legs`), so a new instrument is one subclass of
+:class:`MeasurementModel` plus one registration (:mod:`hexcal.instruments.registry`); every
+estimator, bound, noise estimate, outlier check, verdict, validation and simulation then
+works for it.
+
+A :class:`Session` is the data of one campaign and the instrument that saw them: a
+calibration combines one or more sessions of one machine, each with its own instrument
+quantities.
 
 Imports :mod:`hexcal.core` only.
 """
@@ -15,6 +22,7 @@ Imports :mod:`hexcal.core` only.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -23,6 +31,10 @@ from numpy.typing import NDArray
 from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
+from hexcal.errors import UsageError
+
+#: The noise groups an instrument's covariance may depend on (fields of :class:`NoiseModel`).
+NOISE_FIELDS = ("position", "orientation")
 
 
 class MeasurementModel(ABC):
@@ -34,23 +46,53 @@ class MeasurementModel(ABC):
         Registry name.
     size : int
         Instrument values per observation (missing values are masked, see :meth:`observed`).
-    measures_pose : bool
-        Whether one observation determines the platform pose by itself (the estimators that
-        treat the measured pose as exact, ``paper``, ``length`` and ``gls``, need this).
     """
 
     name: str = ""
     size: int = 0
-    measures_pose: bool = False
 
+    # -- the instrument's own parameters -------------------------------------------------
     def parameters(self) -> ParameterSet:
-        """The parameters this model adds to the machine's (none by default)."""
+        """The instrument's parameters: start values, which are varied, scales, groups
+        (none by default)."""
         return ParameterSet((), np.empty(0))
 
+    def with_values(self, values: NDArray[np.float64], calibration: dict[str, Any] | None = None) -> Any:
+        """The same instrument with its parameters at ``values`` (a calibrated instrument)."""
+        return self
+
+    def describe(self) -> str:
+        """One line: what the instrument sees."""
+        return self.name
+
+    # -- data ----------------------------------------------------------------------------
     @abstractmethod
     def observed(self, data: Any) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """Instrument values ``(m, size)`` of the data and which are present (same shape)."""
 
+    def readings(self, data: Any) -> NDArray[np.float64]:
+        """Leg readings ``(m, 6)`` of the data."""
+        return data.readings
+
+    def ids(self, data: Any) -> tuple[str, ...]:
+        """Observation labels."""
+        return tuple(data.ids)
+
+    def subset(self, data: Any, index: NDArray[np.intp]) -> Any:
+        """The observations at ``index``."""
+        return data.subset(index)
+
+    def value_groups(self) -> tuple[tuple[str, NDArray[np.intp]], ...]:
+        """Groups of an observation's values that can be wrong on their own (a target seen
+        badly), as ``(label, value indices)``; none by default (only whole observations)."""
+        return ()
+
+    def without_values(self, data: Any, j: int, values: NDArray[np.intp]) -> Any:
+        """The data with values ``values`` of observation ``j`` left out (an outlier); by
+        default, and when no value of the observation would remain, without the observation."""
+        return self.subset(data, np.delete(np.arange(len(self.ids(data))), j))
+
+    # -- the measurement model -----------------------------------------------------------
     @abstractmethod
     def predict(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
@@ -72,7 +114,7 @@ class MeasurementModel(ABC):
     def pose_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:
-        """``d predict / d pose``, shape ``(m, size, 6)``."""
+        """``d residual / d pose``, shape ``(m, size, 6)``."""
 
     def whitened_pose_jacobian(
         self,
@@ -81,31 +123,146 @@ class MeasurementModel(ABC):
         euler: str,
         whitener: NDArray[np.float64],
     ) -> NDArray[np.float64]:
-        """``W d predict / d pose`` for a whitening matrix ``W`` (size, size): ``(m, size, 6)``."""
+        """``W d residual / d pose`` for a whitening matrix ``W`` (size, size): ``(m, size, 6)``."""
         return np.matmul(whitener, self.pose_jacobian(setup, poses, euler))
 
     def setup_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:
-        """``d predict / d setup parameters``, shape ``(m, size, q)`` (none by default)."""
+        """``d residual / d instrument parameters``, shape ``(m, size, q)`` (none by default)."""
         return np.zeros((len(poses), self.size, len(setup)))
 
     @abstractmethod
     def covariance(self, noise: NoiseModel) -> NDArray[np.float64]:
         """Noise covariance of one observation's instrument values, ``(size, size)``."""
 
+    def noise_groups(self) -> tuple[str, ...]:
+        """The :class:`NoiseModel` fields the covariance depends on (``position``, ...)."""
+        groups = []
+        for name in NOISE_FIELDS:
+            probe = NoiseModel(0.0, **{f: float(f == name) for f in NOISE_FIELDS}, distribution="normal")
+            if np.any(np.asarray(self.covariance(probe)) != 0):
+                groups.append(name)
+        return tuple(groups)
+
+    def group_labels(self) -> dict[str, str]:
+        """What each noise group is called in reports (``targets`` for target positions)."""
+        return {}
+
     @abstractmethod
     def start_poses(self, geometry: Geometry, setup: NDArray[np.float64], data: Any) -> NDArray[np.float64]:
         """Initial estimates of the true poses ``(m, 6)``."""
 
-    def readings(self, data: Any) -> NDArray[np.float64]:
-        """Leg readings ``(m, 6)`` of the data."""
-        return data.readings
+    # -- what the data must settle ------------------------------------------------------
+    def register(self, geometry: Geometry, data: Any) -> tuple[Any, Any]:
+        """``(instrument, registration)``: the instrument with start values for the
+        quantities the data must settle (an unknown frame), and a record of how they were
+        found (None when nothing needed it)."""
+        return self, None
 
-    def ids(self, data: Any) -> tuple[str, ...]:
-        """Observation labels."""
-        return tuple(data.ids)
+    @property
+    def unregistered(self) -> bool:
+        """Whether some of the instrument's quantities are unknown until the data register
+        them (an instrument frame given as ``auto``)."""
+        return False
 
-    def subset(self, data: Any, index: NDArray[np.intp]) -> Any:
-        """The observations at ``index``."""
-        return data.subset(index)
+    def transform_setup(
+        self,
+        setup: NDArray[np.float64],
+        base: tuple[NDArray, NDArray],
+        platform: tuple[NDArray, NDArray],
+        euler: str,
+    ) -> NDArray[np.float64] | None:
+        """The parameters after new base (``p' = R_b p + t_b``) and platform coordinates
+        (the same physical instrument), or None when the instrument is tied to the base frame
+        (its values have no meaning in other coordinates: then the frames are no gauge)."""
+        return None
+
+    @property
+    def determines_pose(self) -> bool:
+        """Whether one observation alone gives the platform pose in the base frame (the
+        estimators that treat the measured pose as exact, ``paper``, ``length`` and ``gls``,
+        need this)."""
+        return False
+
+    def platform_poses(self, setup: NDArray[np.float64], data: Any, euler: str) -> NDArray[np.float64]:
+        """The platform poses ``(m, 6)`` the observations give (instruments that
+        :attr:`determine the pose <determines_pose>`)."""
+        raise UsageError(f"the {self.name} measurement does not give the platform pose by itself")
+
+    def platform_covariance(
+        self, setup: NDArray[np.float64], poses: NDArray[np.float64], noise: NoiseModel, euler: str
+    ) -> NDArray[np.float64]:
+        """Covariance ``(m, 6, 6)`` of the platform poses the observations give: the noise
+        through the inverse pose Jacobian, ``H⁻¹ Σ H⁻ᵀ`` (instruments that determine the pose)."""
+        inv = np.linalg.inv(self.pose_jacobian(setup, poses, euler))
+        return inv @ self.covariance(noise) @ inv.transpose(0, 2, 1)
+
+    # -- simulation and diagnoses ---------------------------------------------------------
+    def simulate(
+        self,
+        setup: NDArray[np.float64],
+        poses: NDArray[np.float64],
+        readings: NDArray[np.float64],
+        euler: str,
+        noise: NoiseModel | None,
+        rng: np.random.Generator,
+        ids: tuple[str, ...] = (),
+    ) -> Any:
+        """The data the instrument records at true ``poses`` with leg ``readings``: the
+        prediction plus noise drawn from ``rng`` (noise-free when ``noise`` is None)."""
+        raise UsageError(f"the {self.name} instrument cannot simulate data")
+
+    def variants(self, data: Any) -> tuple[tuple[str, str, Any], ...]:
+        """Re-readings of the data that a likely mistake would explain, as ``(code, text,
+        data)``: lengths in metres or inches, angles in the other unit (none by default)."""
+        return ()
+
+    @property
+    def has_angles(self) -> bool:
+        """Whether the data carry angles (then a wrong Euler sequence can be diagnosed)."""
+        return False
+
+    def errors(
+        self, setup: NDArray[np.float64], poses: NDArray[np.float64], data: Any, euler: str
+    ) -> dict[str, NDArray[np.float64]]:
+        """Prediction errors in the instrument's own terms at poses ``(m, 6)``: named arrays
+        ``(m, ...)`` (``position`` mm, ``orientation`` rad, ...), NaN where a value is missing."""
+        values, present = self.observed(data)
+        diff = np.where(present, self.residual(setup, poses, euler, values), np.nan)
+        return {"value": np.sqrt(np.nanmean(diff**2, axis=1))}
+
+
+@dataclass(frozen=True, eq=False)
+class Session:
+    """One measurement session: the data and the instrument that recorded them.
+
+    Parameters
+    ----------
+    data
+        Observations in the form the instrument reads (leg readings and instrument values).
+    instrument : MeasurementModel
+        The instrument, with the start values of its own quantities and which are fixed.
+    label : str
+        How reports name the session (a file name); default ``session 1``, ... by position.
+    """
+
+    data: Any
+    instrument: MeasurementModel
+    label: str = ""
+
+    def __len__(self) -> int:
+        return len(self.instrument.ids(self.data))
+
+    @property
+    def ids(self) -> tuple[str, ...]:
+        return self.instrument.ids(self.data)
+
+    def subset(self, index: NDArray[np.intp]) -> Session:
+        """The session with the observations at ``index``."""
+        return Session(self.instrument.subset(self.data, index), self.instrument, self.label)
+
+    def replace(self, **changes: Any) -> Session:
+        from dataclasses import replace
+
+        return replace(self, **changes)

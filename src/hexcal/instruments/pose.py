@@ -1,102 +1,162 @@
-"""The full-pose measurement: the platform pose measured in the base frame.
+"""Pose instruments: the pose of a tool frame on the platform, in the instrument's frame.
 
-An observation is a measured pose (laser tracker and CMM software that already express the
-platform pose in the machine's base frame, or simulated data) together with the six leg
-readings the controller reported there. :class:`Measurements` holds the data;
-:class:`FullPoseModel` is the measurement model (the instrument reads the pose itself).
+6-DOF laser trackers, cameras and motion capture see a tool (probe, marker, rigid body)
+``T = (t_T, R_T)`` (platform frame) at the true platform pose ``(o, R_P)`` at position
+``R_F (o + R_P t_T) + t_F`` and orientation ``R = R_F R_P R_T`` in their frame ``F``. The data
+are a measurement file (:class:`~hexcal.instruments.data.Measurements`) read as the tool's
+pose in the instrument frame. Noise: the pose noise of the
+:class:`~hexcal.core.noise.NoiseModel` (``position`` per coordinate, ``orientation`` per
+Euler angle, or the full ``pose_covariance``).
+
+The **full pose in the base frame** (:class:`FullPoseModel`: CMM or tracker software that
+already reports the platform pose in the machine's frame, and simulated data) is this
+instrument with the identity frame and tool, both fixed: the same class, not a separate
+path. Its observation determines the platform pose, as does any pose instrument whose frame
+and tool are both fixed (:attr:`ToolModel.determines_pose`).
+
+The orientation residual is not the difference of Euler angles (which jumps by 2π where an
+angle wraps): it is the rotation vector ``ω = log(R R_obsᵀ)`` from the measured to the
+predicted orientation, expressed in Euler-angle increments at the measured orientation,
+``δθ = W_obs⁻ᵀ ω`` (``W`` the rows of the rotation axes,
+:func:`hexcal.core.conventions.euler_axes`). To first order it equals the Euler-angle
+difference, so the pose noise applies unchanged; it is well defined at any angle away from
+gimbal lock of the reported angles. With ``orientation="euler"`` the residual is the
+difference of Euler angles wrapped to ``(-π, π]`` (the full-pose model's).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from hexcal.core.conventions import as_poses
+from hexcal.core.conventions import euler_axes, rotation_matrices
 from hexcal.core.geometry import Geometry
+from hexcal.core.machine import pose_frames
 from hexcal.core.noise import NoiseModel
 from hexcal.errors import UsageError
-from hexcal.instruments.base import MeasurementModel
+from hexcal.instruments.data import Measurements
+from hexcal.instruments.framed import FramedModel, cross_axes
+from hexcal.instruments.registration import Registration, register_pose_instrument
+from hexcal.instruments.setup import Setup, frame_transform, matrix_to_euler
+
+#: Factors of the unit diagnoses: lengths in metres or inches read as millimetres.
+LENGTH_UNITS = (("metres", 1000.0), ("inches", 25.4))
 
 
-@dataclass(frozen=True, eq=False)
-class Measurements:
-    """Measured poses and the leg readings at each.
+def rotation_vectors(matrices: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation vectors ``(..., 3)`` of rotation matrices ``(..., 3, 3)``."""
+    from scipy.spatial.transform import Rotation  # deferred: slow to import
 
-    Parameters
-    ----------
-    poses : array_like, shape (m, 6)
-        Measured poses, mm and rad, in the geometry's Euler convention.
-    readings : array_like, shape (m, 6)
-        Leg readings ``dl_i``, mm.
-    ids : sequence of str, optional
-        Pose labels; default ``"1" ... "m"`` (the row numbers).
+    batch = matrices.shape[:-2]
+    return Rotation.from_matrix(matrices.reshape(-1, 3, 3)).as_rotvec().reshape(batch + (3,))
+
+
+def _wrap(angles: NDArray[np.float64]) -> NDArray[np.float64]:
+    return (angles + np.pi) % (2 * np.pi) - np.pi
+
+
+class ToolModel(FramedModel):
+    """The tool frame's pose in the instrument frame: 6 values per pose.
+
+    Parameters: the instrument frame (6), then the tool (6), see
+    :mod:`hexcal.instruments.setup`.
+
+    >>> model = ToolModel(Setup(np.zeros(6), tool=[0, 0, 60, 0, 0, 0]))
+    >>> model.predict(model.setup.vector(), np.zeros((1, 6)), "XYZ").round(9) + 0.0
+    array([[ 0.,  0., 60.,  0.,  0.,  0.]])
     """
 
-    poses: NDArray[np.float64]
-    readings: NDArray[np.float64]
-    ids: tuple[str, ...] = field(default=())
-
-    def __post_init__(self) -> None:
-        poses = np.array(as_poses(self.poses, "measured poses"), dtype=float)
-        readings = np.array(self.readings, dtype=float)
-        if poses.ndim != 2:
-            raise UsageError(f"measured poses must have shape (m, 6), got {poses.shape}")
-        if readings.shape != poses.shape:
-            raise UsageError(
-                f"leg readings must have shape {poses.shape} like the poses, got {readings.shape}"
-            )
-        for what, arr in (("measured poses", poses), ("leg readings", readings)):
-            bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
-            if bad.size:
-                raise UsageError(f"{what} contain NaN or inf (row {bad[0] + 1})")
-        ids = tuple(str(i) for i in self.ids) or tuple(str(k + 1) for k in range(len(poses)))
-        if len(ids) != len(poses):
-            raise UsageError(f"{len(ids)} ids for {len(poses)} poses")
-        poses.flags.writeable = False
-        readings.flags.writeable = False
-        object.__setattr__(self, "poses", poses)
-        object.__setattr__(self, "readings", readings)
-        object.__setattr__(self, "ids", ids)
-
-    def __len__(self) -> int:
-        return int(self.poses.shape[0])
-
-    def subset(self, index: ArrayLike) -> Measurements:
-        """The measurements at ``index`` (an integer or boolean index)."""
-        idx = np.arange(len(self))[np.asarray(index)]
-        return Measurements(self.poses[idx], self.readings[idx], tuple(self.ids[i] for i in idx))
-
-
-class FullPoseModel(MeasurementModel):
-    """The instrument reads the platform pose in the base frame: ``h(P) = P``.
-
-    Its noise is the pose measurement noise of a :class:`~hexcal.core.noise.NoiseModel`
-    (``position`` and ``orientation``, or a full 6×6 ``pose_covariance``). The leg residual
-    variants ``length`` and ``paper`` evaluate the legs at the measured poses.
-
-    >>> model = FullPoseModel()
-    >>> model.predict(np.empty(0), np.zeros((2, 6)), "XYZ").shape
-    (2, 6)
-    """
-
-    name = "pose"
+    name = "tool"
     size = 6
-    measures_pose = True
+
+    def __init__(self, setup: Setup | None = None, orientation: str = "rotvec") -> None:
+        self.setup = Setup(None, tool=np.zeros(6)) if setup is None else setup
+        if self.setup.kind != "tool":
+            raise UsageError("the tool model needs a setup with a tool")
+        if orientation not in ("rotvec", "euler"):
+            raise UsageError(f"orientation residual must be 'rotvec' or 'euler', got {orientation!r}")
+        self.orientation = orientation
+        fixed = {"instrument_frame", "tool"} <= set(self.setup.fixed)
+        # frame and tool fixed at the identity: the instrument reads the platform pose itself
+        self.identity = (
+            fixed
+            and self.setup.frame is not None
+            and not np.any(self.setup.frame)
+            and not np.any(self.setup.tool)
+        )
+
+    def options(self) -> dict[str, Any]:
+        return {"orientation": self.orientation}
+
+    def describe(self) -> str:
+        if self.identity:
+            return "full pose in the base frame"
+        frame = "frame auto" if self.setup.auto else "frame given"
+        return f"tool pose in the instrument frame ({frame})"
 
     def observed(self, data: Measurements) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         return data.poses, np.ones(data.poses.shape, dtype=bool)
 
+    def _frames(self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str) -> tuple:
+        rot_f, t_f = frame_transform(setup[:6], euler)
+        rot_t, t_t = frame_transform(setup[6:12], euler)
+        rot_p, pos = pose_frames(poses, euler)
+        rt = np.einsum("mjk,k->mj", rot_p, t_t)
+        point = pos + rt  # tool origin, base frame
+        rot = np.einsum("ab,mbc,cd->mad", rot_f, rot_p, rot_t)
+        return rot_f, t_f, rot_t, t_t, rot_p, rt, point, rot
+
     def predict(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:
-        return poses
+        if self.identity:
+            return np.array(poses)
+        rot_f, t_f, *_, point, rot = self._frames(setup, poses, euler)
+        return np.concatenate([point @ rot_f.T + t_f, matrix_to_euler(rot, euler)], axis=1)
+
+    def residual(
+        self,
+        setup: NDArray[np.float64],
+        poses: NDArray[np.float64],
+        euler: str,
+        observed: NDArray[np.float64],
+    ) -> NDArray[np.float64]:
+        """Position difference and orientation residual ``(m, 6)`` (see the module)."""
+        if self.identity:
+            diff = poses - observed
+            if self.orientation == "euler":
+                diff[:, 3:] = _wrap(diff[:, 3:])
+                return diff
+        rot_f, t_f, *_, point, rot = self._frames(setup, poses, euler)
+        position = point @ rot_f.T + t_f - observed[:, :3]
+        if self.orientation == "euler":
+            return np.concatenate([position, _wrap(matrix_to_euler(rot, euler) - observed[:, 3:])], axis=1)
+        rot_obs = rotation_matrices(observed[:, 3:], euler)
+        omega = rotation_vectors(rot @ rot_obs.transpose(0, 2, 1))
+        w_obs = euler_axes(observed[:, 3:], euler)
+        angular = np.linalg.solve(w_obs.transpose(0, 2, 1), omega[..., None])[..., 0]
+        return np.concatenate([position, angular], axis=1)
+
+    def _angular(self, rot: NDArray[np.float64], euler: str, phi: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Euler-angle increments ``W⁻ᵀ φ`` at the predicted orientation for rotations
+        ``φ (m, 3, k)`` (instrument frame)."""
+        w = euler_axes(matrix_to_euler(rot, euler), euler)
+        return np.linalg.solve(w.transpose(0, 2, 1), phi)
 
     def pose_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:
-        return np.broadcast_to(np.eye(6), (len(poses), 6, 6))
+        if self.identity:
+            return np.broadcast_to(np.eye(6), (len(poses), 6, 6))
+        rot_f, _, _, _, _, rt, _, rot = self._frames(setup, poses, euler)
+        axes = euler_axes(poses[:, 3:], euler)
+        jac = np.zeros((len(poses), 6, 6))
+        jac[:, :3, :3] = rot_f
+        jac[:, :3, 3:] = rot_f @ cross_axes(axes, rt)
+        jac[:, 3:, 3:] = self._angular(rot, euler, rot_f @ axes.transpose(0, 2, 1))
+        return jac
 
     def whitened_pose_jacobian(
         self,
@@ -105,7 +165,26 @@ class FullPoseModel(MeasurementModel):
         euler: str,
         whitener: NDArray[np.float64],
     ) -> NDArray[np.float64]:
-        return np.broadcast_to(whitener, (len(poses), 6, 6))
+        if self.identity:
+            return np.broadcast_to(whitener, (len(poses), 6, 6))
+        return np.matmul(whitener, self.pose_jacobian(setup, poses, euler))
+
+    def setup_jacobian(
+        self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
+    ) -> NDArray[np.float64]:
+        rot_f, _, _, _, rot_p, _, point, rot = self._frames(setup, poses, euler)
+        m = len(poses)
+        axes_f = euler_axes(setup[3:6], euler)
+        axes_t = euler_axes(setup[9:12], euler)
+        jac = np.zeros((m, 6, 12))
+        jac[:, :3, :3] = np.eye(3)
+        jac[:, :3, 3:6] = cross_axes(axes_f, point @ rot_f.T)
+        rr = np.einsum("ab,mbc->mac", rot_f, rot_p)
+        jac[:, :3, 6:9] = rr
+        phi = np.concatenate([np.broadcast_to(axes_f.T, (m, 3, 3)), rr @ axes_t.T], axis=2)
+        ang = self._angular(rot, euler, phi)
+        jac[:, 3:, 3:6], jac[:, 3:, 9:12] = ang[..., :3], ang[..., 3:]
+        return jac
 
     def covariance(self, noise: NoiseModel) -> NDArray[np.float64]:
         return noise.pose_cov()
@@ -113,4 +192,118 @@ class FullPoseModel(MeasurementModel):
     def start_poses(
         self, geometry: Geometry, setup: NDArray[np.float64], data: Measurements
     ) -> NDArray[np.float64]:
-        return np.array(data.poses)
+        if self.determines_pose:
+            return self.platform_poses(setup, data, geometry.euler)
+        return super().start_poses(geometry, setup, data)
+
+    def platform_setup(
+        self, values: NDArray[np.float64], platform: tuple[NDArray, NDArray], euler: str
+    ) -> NDArray[np.float64]:
+        rp, tp = platform
+        rot_t, t_t = frame_transform(values[:6], euler)
+        return np.concatenate([rp @ t_t + tp, matrix_to_euler(rp @ rot_t, euler)])
+
+    def register(self, geometry: Geometry, data: Measurements) -> tuple[Any, Registration | None]:
+        if not self.setup.auto:
+            return self, None
+        reg = register_pose_instrument(geometry, self.setup, data)
+        return self.with_values(np.concatenate([reg.frame, reg.tool])), reg
+
+    # -- the pose itself ----------------------------------------------------------------
+    @property
+    def determines_pose(self) -> bool:
+        return {"instrument_frame", "tool"} <= set(self.setup.fixed) and self.setup.frame is not None
+
+    def platform_poses(self, setup: NDArray[np.float64], data: Any, euler: str) -> NDArray[np.float64]:
+        """Platform poses of measured tool poses: ``P = F⁻¹ M T⁻¹`` (frame and tool fixed)."""
+        if not self.determines_pose:
+            return super().platform_poses(setup, data, euler)
+        if self.identity:
+            return np.array(data.poses)
+        rot_f, t_f = frame_transform(setup[:6], euler)
+        rot_t, t_t = frame_transform(setup[6:12], euler)
+        rot_m = rotation_matrices(data.poses[:, 3:], euler)
+        rot_p = rot_f.T @ rot_m @ rot_t.T
+        origin = (data.poses[:, :3] - t_f) @ rot_f  # tool origin, base frame
+        position = origin - rot_p @ t_t
+        return np.concatenate([position, matrix_to_euler(rot_p, euler)], axis=1)
+
+    def platform_covariance(
+        self, setup: NDArray[np.float64], poses: NDArray[np.float64], noise: NoiseModel, euler: str
+    ) -> NDArray[np.float64]:
+        if self.identity:
+            return np.broadcast_to(noise.pose_cov(), (len(poses), 6, 6))
+        return super().platform_covariance(setup, poses, noise, euler)
+
+    # -- simulation and diagnoses -------------------------------------------------------
+    def simulate(
+        self,
+        setup: NDArray[np.float64],
+        poses: NDArray[np.float64],
+        readings: NDArray[np.float64],
+        euler: str,
+        noise: NoiseModel | None,
+        rng: np.random.Generator,
+        ids: tuple[str, ...] = (),
+    ) -> Measurements:
+        values = self.predict(setup, poses, euler)
+        if noise is not None:
+            values = values + noise.pose_errors(rng, (len(values),))
+        return Measurements(values, readings, ids)
+
+    @property
+    def has_angles(self) -> bool:
+        return True
+
+    def variants(self, data: Measurements) -> tuple[tuple[str, str, Any], ...]:
+        out = []
+        for unit, factor in LENGTH_UNITS:
+            poses = np.array(data.poses)
+            poses[:, :3] *= factor
+            out.append((f"length-units-{unit}", f"the positions look like {unit}", data.replace(poses=poses)))
+        angles = np.abs(np.asarray(data.poses)[:, 3:])
+        for code, factor, text in (
+            ("radians", np.pi / 180, "the angles look like degrees in radian columns"),
+            ("degrees", 180 / np.pi, "the angles look like radians in degree columns (a_deg)"),
+        ):
+            if code == "degrees" and np.max(angles, initial=0.0) * 180 / np.pi > np.pi:
+                continue  # read as degrees, these angles would pass a half turn
+            poses = np.array(data.poses)
+            poses[:, 3:] *= factor
+            out.append((f"angle-units-{code}", text, data.replace(poses=poses)))
+        return tuple(out)
+
+    def errors(
+        self, setup: NDArray[np.float64], poses: NDArray[np.float64], data: Measurements, euler: str
+    ) -> dict[str, NDArray[np.float64]]:
+        """Position (mm) and orientation (rad, rotation angle) error of each predicted pose."""
+        from hexcal.core.conventions import orientation_error
+
+        predicted = self.predict(setup, poses, euler)
+        position = np.linalg.norm(predicted[:, :3] - data.poses[:, :3], axis=1)
+        return {
+            "position": position,
+            "orientation": orientation_error(predicted[:, 3:], data.poses[:, 3:], euler),
+        }
+
+
+class FullPoseModel(ToolModel):
+    """The platform pose measured in the base frame: the pose instrument with the identity
+    frame and tool, both fixed (``h(P) = P``; orientation residual the wrapped Euler-angle
+    difference).
+
+    >>> model = FullPoseModel()
+    >>> model.predict(model.setup.vector(), np.zeros((2, 6)), "XYZ").shape
+    (2, 6)
+    >>> model.determines_pose, model.parameters().n_free
+    (True, 0)
+    """
+
+    name = "pose"
+
+    def __init__(self, setup: Setup | None = None, orientation: str = "euler") -> None:
+        identity = Setup(np.zeros(6), tool=np.zeros(6), fixed=("instrument_frame", "tool"))
+        super().__init__(identity if setup is None else setup, orientation)
+
+    def options(self) -> dict[str, Any]:
+        return {}

@@ -1,30 +1,56 @@
-"""Measurement models by name: a new instrument is one new module plus one line here.
+"""Instruments by name: a new instrument is one new module plus one line here.
+
+:data:`MODELS` maps each name to its class; :func:`instrument_for` gives the instrument a
+setup describes (its quantities say which: targets or a tool), and :func:`full_pose` the
+instrument of a measurement file read without a setup (the platform pose in the base frame).
 
 >>> sorted(MODELS)
 ['pose', 'targets', 'tool']
->>> model_by_name("pose").measures_pose
+>>> model_by_name("pose").determines_pose
 True
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 from hexcal.errors import UsageError
 from hexcal.instruments.base import MeasurementModel
-from hexcal.instruments.pose import FullPoseModel
+from hexcal.instruments.pose import FullPoseModel, ToolModel
+from hexcal.instruments.setup import Setup
 from hexcal.instruments.targets import TargetModel
-from hexcal.instruments.tool import ToolModel
 
-#: Measurement model classes by name.
+#: Instrument classes by name.
 MODELS: dict[str, type[MeasurementModel]] = {
     FullPoseModel.name: FullPoseModel,
     TargetModel.name: TargetModel,
     ToolModel.name: ToolModel,
 }
 
+#: The instrument of each kind of setup (:attr:`Setup.kind`).
+SETUP_KINDS: dict[str, str] = {"targets": TargetModel.name, "tool": ToolModel.name}
 
-def model_by_name(name: str) -> MeasurementModel:
-    """A new instance of the model registered as ``name``."""
+
+def model_by_name(name: str, *args: Any, **options: Any) -> MeasurementModel:
+    """A new instance of the instrument registered as ``name``."""
     try:
-        return MODELS[name]()
+        cls = MODELS[name]
     except KeyError:
         raise UsageError(f"unknown measurement model {name!r}; choose from {', '.join(MODELS)}") from None
+    return cls(*args, **options)
+
+
+def instrument_for(setup: Setup | None, **options: Any) -> MeasurementModel:
+    """The instrument of a setup (``None``: the full pose in the base frame)."""
+    if setup is None:
+        return FullPoseModel()
+    try:
+        name = SETUP_KINDS[setup.kind]
+    except KeyError:
+        raise UsageError(f"no instrument for a setup of kind {setup.kind!r}") from None
+    return model_by_name(name, setup, **options)
+
+
+def full_pose() -> MeasurementModel:
+    """The full pose in the base frame: the pose instrument with identity frame and tool, fixed."""
+    return FullPoseModel()

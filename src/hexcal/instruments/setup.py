@@ -188,7 +188,8 @@ class Setup:
         if self.kind in self.fixed:
             vary[6:] = False
         groups = {"frame": names[:6], self.kind: names[6:]}
-        return ParameterSet(names, self.vector(), vary, scales, groups)
+        blocks = {"frame": (0, 6), self.kind: (6, len(names))}
+        return ParameterSet(names, self.vector(), vary, scales, groups, blocks)
 
     def with_vector(self, values: ArrayLike, calibration: dict[str, Any] | None = None) -> Setup:
         """The setup with parameter values ``values`` (order of :meth:`names`)."""

@@ -5,9 +5,9 @@ setup, its measured position in the instrument frame (or nothing, when the line 
 lost). The model predicts ``y_i = R_F (o + R_P q_i) + t_F`` for target ``q_i`` (platform frame)
 at the true pose ``(o, R_P)`` with the instrument frame ``(R_F, t_F)``: three residuals per
 target seen. Noise: each coordinate of a target has the standard deviation of
-:class:`~hexcal.core.noise.NoiseModel`'s ``position`` (independent, isotropic).
+:class:`~hexcal.core.noise.NoiseModel`'s ``position`` (independent, isotropic; reported as the
+``targets`` group).
 
->>> from hexcal.instruments.setup import Setup
 >>> model = TargetModel(Setup(np.zeros(6), {"t1": [0, 0, 60]}))
 >>> model.predict(model.setup.vector(), np.zeros((2, 6)), "XYZ")
 array([[ 0.,  0., 60.],
@@ -16,127 +16,21 @@ array([[ 0.,  0., 60.],
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from hexcal.core.conventions import euler_axes
 from hexcal.core.geometry import Geometry
-from hexcal.core.kinematics import forward_kinematics, leg_lengths
+from hexcal.core.machine import pose_frames
 from hexcal.core.noise import NoiseModel
-from hexcal.core.parameters import ParameterSet
 from hexcal.errors import UsageError
-from hexcal.instruments.base import MeasurementModel
-from hexcal.instruments.legs import pose_frames
-from hexcal.instruments.setup import Setup, frame_transform, transform_frame
-
-
-@dataclass(frozen=True, eq=False)
-class TargetMeasurements:
-    """Leg readings and measured target positions of every pose.
-
-    Parameters
-    ----------
-    readings : array_like, shape (m, 6)
-        Leg readings ``dl``, mm.
-    targets : array_like, shape (m, n, 3)
-        Target positions in the instrument frame, mm; a target not seen is NaN (all three).
-    names : sequence of str
-        Target names ``t1 ...`` (``n``).
-    ids : sequence of str, optional
-        Pose labels; default the row numbers.
-    """
-
-    readings: NDArray[np.float64]
-    targets: NDArray[np.float64]
-    names: tuple[str, ...]
-    ids: tuple[str, ...] = field(default=())
-
-    def __post_init__(self) -> None:
-        readings = np.array(self.readings, dtype=float)
-        targets = np.array(self.targets, dtype=float)
-        names = tuple(self.names)
-        m = len(readings)
-        if readings.ndim != 2 or readings.shape[1] != 6:
-            raise UsageError(f"leg readings must have shape (m, 6), got {readings.shape}")
-        if targets.shape != (m, len(names), 3):
-            raise UsageError(f"target positions must have shape ({m}, {len(names)}, 3), got {targets.shape}")
-        ids = tuple(str(i) for i in self.ids) or tuple(str(k + 1) for k in range(m))
-        if len(ids) != m:
-            raise UsageError(f"{len(ids)} ids for {m} poses")
-        bad = np.flatnonzero(~np.all(np.isfinite(readings), axis=1))
-        if bad.size:
-            raise UsageError(f"leg readings contain NaN or inf (pose {ids[bad[0]]}, row {bad[0] + 1})")
-        nan = np.isnan(targets)
-        partial = np.flatnonzero(np.any(nan.any(axis=2) & ~nan.all(axis=2), axis=1))
-        if partial.size or np.isinf(targets).any():
-            k = partial[0] if partial.size else int(np.argwhere(np.isinf(targets))[0, 0])
-            raise UsageError(f"pose {ids[k]} (row {k + 1}): a target needs all three coordinates or none")
-        unseen = np.flatnonzero(nan.all(axis=(1, 2)))
-        if unseen.size:
-            k = unseen[0]
-            raise UsageError(f"pose {ids[k]} (row {k + 1}): no target seen (every target cell is empty)")
-        for arr in (readings, targets):
-            arr.flags.writeable = False
-        object.__setattr__(self, "readings", readings)
-        object.__setattr__(self, "targets", targets)
-        object.__setattr__(self, "names", names)
-        object.__setattr__(self, "ids", ids)
-
-    def __len__(self) -> int:
-        return int(self.readings.shape[0])
-
-    @property
-    def seen(self) -> NDArray[np.bool_]:
-        """Which target was seen at which pose, ``(m, n)``."""
-        return ~np.isnan(self.targets[..., 0])
-
-    def subset(self, index: ArrayLike) -> TargetMeasurements:
-        """The poses at ``index`` (integer or boolean)."""
-        idx = np.arange(len(self))[np.asarray(index)]
-        return TargetMeasurements(
-            self.readings[idx], self.targets[idx], self.names, tuple(self.ids[i] for i in idx)
-        )
-
-
-def cross_axes(axes: NDArray[np.float64], vectors: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``w_k × v`` for axes ``(..., 3 (k), 3)`` and vectors ``(..., 3)``: ``(..., 3 (coord), 3 (k))``."""
-    return np.moveaxis(np.cross(axes, vectors[..., None, :]), -2, -1)
-
-
-def fk_start_poses(geometry: Geometry, readings: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Forward kinematics of leg readings on ``geometry`` (home pose where it fails)."""
-    home = geometry.home_pose if geometry.home_pose is not None else np.zeros(6)
-    fk = forward_kinematics(geometry, leg_lengths(geometry, readings), guess=home)
-    return np.where(fk.converged[:, None], fk.poses, home)
-
-
-class FramedModel(MeasurementModel):
-    """An instrument in its own frame: the setup is the frame's pose (first six values) and
-    what the instrument sees on the platform (the rest); poses start from the forward
-    kinematics of the leg readings."""
-
-    def start_poses(self, geometry: Geometry, setup: NDArray[np.float64], data: Any) -> NDArray[np.float64]:
-        return fk_start_poses(geometry, data.readings)
-
-    def platform_setup(
-        self, values: NDArray[np.float64], platform: tuple[NDArray, NDArray], euler: str
-    ) -> NDArray[np.float64]:
-        """The platform part of the setup in new platform coordinates (``p' = R_p p + t_p``)."""
-        raise NotImplementedError
-
-    def transform_setup(
-        self,
-        setup: NDArray[np.float64],
-        base: tuple[NDArray, NDArray],
-        platform: tuple[NDArray, NDArray],
-        euler: str,
-    ) -> NDArray[np.float64]:
-        """Setup values after new base (``p' = R_b p + t_b``) and platform coordinates."""
-        frame = transform_frame(setup[:6], base, euler)
-        return np.concatenate([frame, self.platform_setup(setup[6:], platform, euler)])
+from hexcal.instruments.data import TargetMeasurements
+from hexcal.instruments.framed import FramedModel, cross_axes
+from hexcal.instruments.pose import LENGTH_UNITS
+from hexcal.instruments.registration import Registration, register_targets
+from hexcal.instruments.setup import Setup, frame_transform
 
 
 class TargetModel(FramedModel):
@@ -147,7 +41,6 @@ class TargetModel(FramedModel):
     """
 
     name = "targets"
-    measures_pose = False
 
     def __init__(self, setup: Setup | None = None) -> None:
         self.setup = Setup(None, {"t1": np.zeros(3)}) if setup is None else setup
@@ -156,8 +49,9 @@ class TargetModel(FramedModel):
         self.n_targets = len(self.setup.targets)
         self.size = 3 * self.n_targets
 
-    def parameters(self) -> ParameterSet:
-        return self.setup.parameters()
+    def describe(self) -> str:
+        frame = "frame auto" if self.setup.auto else "frame given"
+        return f"{self.n_targets} target position(s) in the instrument frame ({frame})"
 
     def observed(self, data: TargetMeasurements) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         if tuple(data.names) != self.setup.target_names:
@@ -211,3 +105,70 @@ class TargetModel(FramedModel):
     ) -> NDArray[np.float64]:
         rp, tp = platform
         return (values.reshape(-1, 3) @ rp.T + tp).ravel()
+
+    def group_labels(self) -> dict[str, str]:
+        return {"position": "targets"}
+
+    def value_groups(self) -> tuple[tuple[str, NDArray[np.intp]], ...]:
+        return tuple(
+            (f"target {name}", np.arange(3 * i, 3 * i + 3)) for i, name in enumerate(self.setup.target_names)
+        )
+
+    def without_values(self, data: TargetMeasurements, j: int, values: NDArray[np.intp]) -> Any:
+        targets = np.array(data.targets).reshape(len(data), -1)
+        targets[j, values] = np.nan
+        if np.isnan(targets[j]).all():
+            return data.subset(np.delete(np.arange(len(data)), j))
+        return data.replace(targets=targets.reshape(data.targets.shape))
+
+    def register(self, geometry: Geometry, data: TargetMeasurements) -> tuple[Any, Registration | None]:
+        if not self.setup.auto:
+            return self, None
+        reg = register_targets(geometry, self.setup, data)
+        return self.with_values(np.concatenate([reg.frame, self.setup.vector()[6:]])), reg
+
+    def simulate(
+        self,
+        setup: NDArray[np.float64],
+        poses: NDArray[np.float64],
+        readings: NDArray[np.float64],
+        euler: str,
+        noise: NoiseModel | None,
+        rng: np.random.Generator,
+        ids: tuple[str, ...] = (),
+        missing_rate: float = 0.0,
+    ) -> TargetMeasurements:
+        """Target positions at true poses plus noise; each target observation is lost with
+        probability ``missing_rate``, and a pose with every target lost is not recorded (the
+        ids keep the others' labels)."""
+        m, n = len(poses), self.n_targets
+        values = self.predict(setup, poses, euler).reshape(m, n, 3)
+        if noise is not None:
+            values = values + noise.pose_errors(rng, (m, n))[..., :3]
+        lost = rng.random((m, n)) < missing_rate
+        values[lost] = np.nan
+        keep = ~lost.all(axis=1)
+        labels = tuple(ids) or tuple(str(k + 1) for k in range(m))
+        return TargetMeasurements(
+            readings[keep],
+            values[keep],
+            self.setup.target_names,
+            tuple(labels[k] for k in np.flatnonzero(keep)),
+        )
+
+    def variants(self, data: TargetMeasurements) -> tuple[tuple[str, str, Any], ...]:
+        return tuple(
+            (
+                f"length-units-{unit}",
+                f"the target coordinates look like {unit}",
+                data.replace(targets=data.targets * f),
+            )
+            for unit, f in LENGTH_UNITS
+        )
+
+    def errors(
+        self, setup: NDArray[np.float64], poses: NDArray[np.float64], data: TargetMeasurements, euler: str
+    ) -> dict[str, NDArray[np.float64]]:
+        """Distance (mm) between each measured and predicted target (NaN where not seen)."""
+        predicted = self.predict(setup, poses, euler).reshape(data.targets.shape)
+        return {"target": np.linalg.norm(predicted - data.targets, axis=-1)}

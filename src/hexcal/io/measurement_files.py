@@ -12,10 +12,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning
+from hexcal.instruments.pose import Measurements
 from hexcal.io.inputs import DEFAULT_MAX_ROWS, MEASUREMENT_MAX_ROWS
 from hexcal.io.outputs import OutputSet
 from hexcal.io.tables import BLOCK_ROWS, Table, iter_tables, read_table, write_table
-from hexcal.instruments.pose import Measurements
 
 #: A quaternion whose norm differs from 1 by more than this is refused (others are
 #: normalised). 1e-3 admits instruments that print 4 decimals and catches a wrong column.

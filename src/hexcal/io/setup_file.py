@@ -8,8 +8,8 @@ from pathlib import Path
 import yaml
 
 from hexcal.errors import InputError
-from hexcal.io.files import atomic_write, plain
 from hexcal.instruments.setup import Setup
+from hexcal.io.files import atomic_write, plain
 
 
 def load_setup(path: str | os.PathLike[str]) -> Setup:

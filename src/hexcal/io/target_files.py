@@ -23,12 +23,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning
-from hexcal.io.files import atomic_write
-from hexcal.io.measurement_files import LEG_READING_COLUMNS, table_poses
-from hexcal.io.tables import Table
 from hexcal.instruments.pose import Measurements
 from hexcal.instruments.setup import Setup
 from hexcal.instruments.targets import TargetMeasurements
+from hexcal.io.files import atomic_write
+from hexcal.io.measurement_files import LEG_READING_COLUMNS, table_poses
+from hexcal.io.tables import Table
 
 DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
 UNIT_WORDS = {"mm", "rad", "deg", "°", "-", "", "1"}

@@ -71,7 +71,7 @@ def identify_or_nan(
     start: Geometry, data: Measurements, method: str, noise: NoiseModel | None
 ) -> NDArray[np.float64]:
     """The identified 42-vector of one data set, NaN if the identification failed."""
-    from hexcal.estimation import estimate  # deferred: importing the protocol needs no scipy
+    from hexcal.calibration import estimate  # deferred: importing the protocol needs no scipy
 
     try:
         result = estimate(start, data, method=method, mask=select_parameters(), noise=noise, with_bound=False)

@@ -1,7 +1,7 @@
 """The verdict of an identification: ``pass``, ``warn`` or ``fail``, with its reasons.
 
 :func:`assess` judges a fit on five counts and names the likely cause of a bad one
-(:mod:`hexcal.estimation.diagnosis`):
+(:mod:`hexcal.calibration.diagnosis`):
 
 - **noise consistency**: the reduced chi-square against its χ² range for the degrees of
   freedom (a given noise model), the per-group test of a given noise
@@ -14,14 +14,17 @@
 - **plausibility**: a change larger than :data:`MAX_CHANGE` of the machine's size (base
   radius for ``u``, platform radius for ``s``, the larger for ``l0``; a gain change larger
   than :data:`MAX_CHANGE` itself) is ``fail``;
-- **gross outliers**: poses whose leg residuals under a robust soft-L1 fit
-  (:func:`hexcal.estimation.robust.screen_poses`) exceed :data:`SCREEN_THRESHOLD` robust
+- **gross outliers**: observations whose residuals under a robust soft-L1 fit
+  (:func:`hexcal.estimation.outliers.screen_poses`) exceed :data:`SCREEN_THRESHOLD` robust
   σ (``warn``), or :data:`GROSS_FACTOR` times that (``fail``), named by id;
 - **predicted accuracy**: the position and orientation RMS error over the workspace after
-  calibration, from the parameter covariance (:func:`predicted_pose_accuracy`; ``info``).
+  calibration, from the parameter covariance (the one formula of
+  :func:`hexcal.calibration.accuracy.predicted_pose_accuracy`; ``info``).
 
-A ``fail`` means the calibrated geometry should not be used (the CLI writes it only with
-``--force``).
+The same judgement holds for every instrument: the limits are per kind of parameter (lengths
+in mm, angles in rad, gains relative to their nominal value), and an instrument's frame, which
+the data register from anywhere, has no plausibility limit. A ``fail`` means the calibrated
+geometry should not be used (the CLI writes it only with ``--force``).
 """
 
 from __future__ import annotations
@@ -32,17 +35,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hexcal.calibration.accuracy import machine_mask, predicted_pose_accuracy
 from hexcal.core.geometry import Geometry
-from hexcal.core.kinematics import pose_jacobian_from_arrays
-from hexcal.core.parameters import N_ALL_PARAMETERS, PARAMETER_NAMES
-from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.errors import HexcalError
-from hexcal.instruments.legs import leg_parameter_jacobian, pose_frames
 
 #: Default limits of the predicted σ of a parameter combination (per unit of the
-#: normalised combination): 1 mm for lengths, 1e-3 for gains. ``assess(sigma_limit=k)``
-#: scales both by ``k``.
-SIGMA_LIMITS = {"length": 1.0, "gain": 1e-3}
+#: normalised combination): 1 mm for lengths, 1e-3 (relative) for gains, 1e-3 rad for an
+#: instrument's angles. ``assess(sigma_limit=k)`` scales them by ``k``.
+SIGMA_LIMITS = {"length": 1.0, "gain": 1e-3, "angle": 1e-3}
+
+#: Names of instrument angles (frame and tool orientation).
+_ANGLE_SUFFIXES = (".a", ".b", ".c")
 
 #: Largest plausible change of a parameter, as a fraction of the machine's size (and of 1
 #: for gains).
@@ -110,17 +113,44 @@ def combination_name(vector: NDArray[np.float64], names: tuple[str, ...], top: i
     return " ".join(f"{vector[k]:+.2f}·{names[k]}" for k in order if abs(vector[k]) > 0.05)
 
 
-def parameter_limits(names: tuple[str, ...], sigma_limit: float = 1.0) -> NDArray[np.float64]:
-    """The σ limit of each named parameter (mm, or dimensionless for gains)."""
-    return np.array([SIGMA_LIMITS["gain" if n.startswith("g") else "length"] * sigma_limit for n in names])
+def _local(name: str) -> str:
+    """A parameter name without its session prefix (``session2.frame.x`` -> ``frame.x``)."""
+    return name.split(".", 1)[1] if name.startswith("session") and "." in name else name
+
+
+def _kind(name: str) -> str:
+    """``gain``, ``angle`` or ``length``: the unit of a parameter's limits."""
+    local = _local(name)
+    if local.startswith("g") and local[1:].isdigit():
+        return "gain"
+    if local.startswith(("frame.", "tool.")) and local.endswith(_ANGLE_SUFFIXES):
+        return "angle"
+    return "length"
+
+
+def parameter_limits(
+    names: tuple[str, ...], sigma_limit: float = 1.0, values: NDArray[np.float64] | None = None
+) -> NDArray[np.float64]:
+    """The σ limit of each named parameter (mm, rad, or relative to the gain's ``values``)."""
+    out = []
+    for k, n in enumerate(names):
+        kind = _kind(n)
+        limit = SIGMA_LIMITS[kind] * sigma_limit
+        if kind == "gain" and values is not None and values[k] != 0:
+            limit *= abs(float(values[k]))
+        out.append(limit)
+    return np.array(out)
 
 
 def undetermined(
-    covariance: NDArray[np.float64], names: tuple[str, ...], sigma_limit: float = 1.0
+    covariance: NDArray[np.float64],
+    names: tuple[str, ...],
+    sigma_limit: float = 1.0,
+    values: NDArray[np.float64] | None = None,
 ) -> list[tuple[float, str]]:
     """Parameter combinations whose predicted σ exceeds the limit: ``[(σ, name), ...]``, worst
     first (σ in units of the limits)."""
-    d = parameter_limits(names, sigma_limit)
+    d = parameter_limits(names, sigma_limit, values)
     cov = covariance / np.outer(d, d)
     vals, vecs = np.linalg.eigh(0.5 * (cov + cov.T))
     sig = np.sqrt(np.maximum(vals, 0.0))
@@ -135,46 +165,32 @@ def machine_size(geometry: Geometry) -> tuple[float, float]:
     return rb, rp
 
 
-def change_limits(geometry: Geometry, names: tuple[str, ...], fraction: float = MAX_CHANGE) -> NDArray:
-    """Largest plausible change of each named parameter."""
-    rb, rp = machine_size(geometry)
-    size = {"u": rb, "s": rp, "l": max(rb, rp), "g": 1.0}
-    return np.array([fraction * size.get(n[0], max(rb, rp)) for n in names])
-
-
-def predicted_pose_accuracy(
+def change_limits(
     geometry: Geometry,
-    covariance: NDArray[np.float64],
-    mask: NDArray[np.bool_],
-    n_random: int = 200,
-    seed: int = 0,
-) -> dict[str, float]:
-    """RMS and worst position (mm) and orientation (rad) σ over the workspace after calibration.
-
-    A minimal first-order pose error map (:mod:`hexcal.design` has the full one; estimation
-    may not import it): at each pose ``P`` (the workspace corners and ``n_random`` uniform
-    poses) the legs set by the calibrated model reach ``P + δP`` on the real machine,
-    ``δP = -J_P⁻¹ (∂r/∂θ) δθ``, so ``cov(δP) = G C Gᵀ`` with ``C`` the parameter
-    covariance (machine parameters ``mask``, shape (n, n)).
-    """
-    poses = np.concatenate([workspace_corners(geometry), random_poses(geometry, n_random, seed)])
-    values = geometry.to_vector(gains=True)
-    u, s = geometry.base_joints, geometry.platform_joints
-    lengths, jp = pose_jacobian_from_arrays(u, s, poses, geometry.euler)
-    readings = (lengths - geometry.initial_leg_lengths) / geometry.leg_gains
-    rot, pos = pose_frames(poses, geometry.euler)
-    a = leg_parameter_jacobian(values, rot, pos, readings)[:, :, mask]
-    g = np.linalg.solve(jp, a)  # (m, 6, n): pose change per parameter change
-    var = np.einsum("mik,kl,mil->mi", g, covariance, g)
-    var = np.maximum(var, 0.0)
-    pos_var, ang_var = var[:, :3].sum(axis=1), var[:, 3:].sum(axis=1)
-    return {
-        "position_rms_mm": float(np.sqrt(pos_var.mean())),
-        "position_max_mm": float(np.sqrt(pos_var.max())),
-        "orientation_rms_rad": float(np.sqrt(ang_var.mean())),
-        "orientation_max_rad": float(np.sqrt(ang_var.max())),
-        "poses": len(poses),
-    }
+    names: tuple[str, ...],
+    fraction: float = MAX_CHANGE,
+    values: NDArray[np.float64] | None = None,
+) -> NDArray:
+    """Largest plausible change of each named parameter: a fraction of the base radius for
+    ``u``, of the platform radius for ``s`` and for what an instrument sees on the platform
+    (a tool, targets), of the larger for the leg model's lengths, of the gain itself for a
+    gain; none (inf) for an instrument's frame and angles, which the data register from
+    anywhere."""
+    rb, rp = machine_size(geometry)
+    out = []
+    for k, n in enumerate(names):
+        local, kind = _local(n), _kind(n)
+        if local.startswith("frame.") or kind == "angle":
+            out.append(np.inf)
+        elif kind == "gain":
+            out.append(fraction * (abs(float(values[k])) if values is not None else 1.0))
+        elif local.startswith("u"):
+            out.append(fraction * rb)
+        elif local.startswith(("s", "tool.", "t")):
+            out.append(fraction * rp)
+        else:
+            out.append(fraction * max(rb, rp))
+    return np.array(out)
 
 
 def _chi_square_reasons(result: Any, alpha: float) -> list[Reason]:
@@ -227,7 +243,7 @@ def _noise_reasons(noise_estimate: Any, noise_check: Any) -> list[Reason]:
 
 def assess(
     result: Any,
-    measurements: Any = None,
+    problem: Any = None,
     *,
     noise_estimate: Any = None,
     noise_check: Any = None,
@@ -235,16 +251,17 @@ def assess(
     max_change: float = MAX_CHANGE,
     alpha: float = 0.01,
     robust: bool = False,
-    diagnose: bool = True,
+    diagnose: Any = None,
     accuracy: bool = True,
+    noise: Any = None,
 ) -> Verdict:
     """The verdict of an identification (module docstring).
 
     Parameters
     ----------
     result : IdentificationResult
-    measurements : Measurements, optional
-        The data fitted (full-pose model): needed for the outlier screening and the diagnoses.
+    problem : Problem, optional
+        The data fitted: needed for the outlier screening.
     noise_estimate : NoiseEstimate, optional
         The noise learned from the data (``noise="auto"``).
     noise_check : NoiseCheck, optional
@@ -257,17 +274,20 @@ def assess(
         Level of the statistical tests.
     robust : bool
         The fit left outliers out already (the screening then only reports).
-    diagnose : bool
-        Name the likely cause of a bad fit by refitting variants
-        (:func:`hexcal.estimation.diagnosis.diagnose`).
+    diagnose : callable, optional
+        ``diagnose(bad) -> list of Reason``: the likely causes of a bad fit found by refitting
+        variants (:func:`hexcal.calibration.diagnosis.diagnose`).
     accuracy : bool
         Compute the predicted pose accuracy over the workspace.
+    noise : NoiseModel or sequence, optional
+        The noise the screening of instruments that do not give the pose whitens with.
     """
     reasons: list[Reason] = []
     reasons += _chi_square_reasons(result, alpha) if noise_estimate is None else []
     reasons += _noise_reasons(noise_estimate, noise_check)
     names = result.names
-    for sig, combo in undetermined(result.covariance, names, sigma_limit)[:5]:
+    start_values = np.asarray(result.start_values)
+    for sig, combo in undetermined(result.covariance, names, sigma_limit, start_values)[:5]:
         severity = "fail" if sig > FAIL_FACTOR else "warn"
         reasons.append(
             Reason(
@@ -275,12 +295,12 @@ def assess(
                 severity,
                 f"{'not' if severity == 'fail' else 'poorly'} determined by these data: {combo} "
                 f"(predicted σ {sig:.3g} × the limit of {sigma_limit:g} mm, "
-                f"{sigma_limit * 1e-3:g} for gains)",
+                f"{sigma_limit * 1e-3:g} relative for gains, {sigma_limit * 1e-3:g} rad for angles)",
                 {"combination": combo, "sigma_over_limit": sig},
             )
         )
-    change = np.asarray(result.values) - np.asarray(result.start_values)
-    limits = change_limits(result.start, names, max_change)
+    change = np.asarray(result.values) - start_values
+    limits = change_limits(result.start, names, max_change, start_values)
     over = np.flatnonzero(np.abs(change) > limits)
     if over.size:
         worst = over[np.argsort(-np.abs(change[over]) / limits[over])][:4]
@@ -299,13 +319,14 @@ def assess(
     if result.flagged:
         text = f"poses with implausible residuals: {', '.join(result.flagged)}"
         reasons.append(Reason("flagged", "warn", text))
-    if measurements is not None and hasattr(measurements, "poses") and not robust:
-        reasons += _outlier_reasons(result, measurements)
+    if problem is not None and not robust:
+        reasons += _outlier_reasons(result, problem, noise)
     acc = None
-    machine = np.isin(PARAMETER_NAMES, names)
-    n_machine = int(machine.sum())
-    if accuracy and n_machine and np.all(np.isfinite(result.covariance[:n_machine, :n_machine])):
-        acc = predicted_pose_accuracy(result.geometry, result.covariance[:n_machine, :n_machine], machine)
+    machine = set(result.start.machine_names())
+    rows = np.array([n in machine for n in names])
+    if accuracy and rows.any() and np.all(np.isfinite(result.covariance[np.ix_(rows, rows)])):
+        cov = result.covariance[np.ix_(rows, rows)]
+        acc = predicted_pose_accuracy(result.geometry, cov, machine_mask(result.geometry, names=names))
         reasons.append(
             Reason(
                 "predicted-accuracy",
@@ -317,41 +338,39 @@ def assess(
             )
         )
     verdict = Verdict(tuple(reasons), acc)
-    if diagnose and measurements is not None and hasattr(measurements, "poses"):
-        from hexcal.estimation.diagnosis import diagnose as run_diagnosis
-
-        extra = run_diagnosis(result, measurements, bad=verdict.status != "pass" or result.flagged != ())
+    if diagnose is not None:
+        extra = diagnose(verdict.status != "pass" or result.flagged != ())
         verdict = Verdict(tuple(reasons) + tuple(extra), acc)
     return verdict
 
 
-def _outlier_reasons(result: Any, measurements: Any) -> list[Reason]:
-    from hexcal.estimation.robust import screen_poses
+def _outlier_reasons(result: Any, problem: Any, noise: Any) -> list[Reason]:
+    from hexcal.estimation.outliers import screen_poses
 
-    mask = np.isin(PARAMETER_NAMES, result.names)
-    if len(result.names) != int(mask.sum()) or len(measurements) != result.n_poses:
+    if len(problem) != result.n_poses:
         return []
     try:
-        scores = screen_poses(result.start, measurements, mask)
+        scores = screen_poses(result.start, problem=problem, noise=noise)
     except (HexcalError, ValueError, np.linalg.LinAlgError):  # the screening is advisory
         return []
     out = []
     gross = SCREEN_THRESHOLD * GROSS_FACTOR
+    ids = problem.ids
     for sev, lo, hi in (("fail", gross, np.inf), ("warn", SCREEN_THRESHOLD, gross)):
         idx = np.flatnonzero((scores > lo) & (scores <= hi))
         if idx.size:
             idx = idx[np.argsort(-scores[idx])]
-            listed = ", ".join(f"{measurements.ids[k]} ({scores[k]:.0f} σ)" for k in idx[:10])
+            listed = ", ".join(f"{ids[k]} ({scores[k]:.0f} σ)" for k in idx[:10])
             out.append(
                 Reason(
                     "gross-outlier" if sev == "fail" else "outlier",
                     sev,
-                    f"pose(s) with leg residuals far beyond the robust scale: {listed}; "
+                    f"pose(s) with residuals far beyond the robust scale: {listed}; "
                     "check them or fit with --robust",
-                    {"poses": [measurements.ids[k] for k in idx]},
+                    {"poses": [ids[k] for k in idx]},
                 )
             )
     return out
 
 
-__all__ = ["N_ALL_PARAMETERS", "Reason", "Verdict", "assess", "predicted_pose_accuracy", "undetermined"]
+__all__ = ["Reason", "Verdict", "assess", "predicted_pose_accuracy", "undetermined"]

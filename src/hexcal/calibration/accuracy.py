@@ -1,0 +1,190 @@
+"""Predicted accuracy after calibration: the one formula, for planning and for the verdict.
+
+A controller that uses identified parameters ``θ̂`` misses a target by the pose error
+``δpose = E (θ̂ - θ)`` to first order, with the map ``E = -J⁻¹ A`` from parameter errors to
+platform pose errors (:func:`pose_error_map`: ``J`` the pose Jacobian of the legs, ``A`` the
+leg residual's Jacobian with respect to the machine's parameters, any leg model). With the
+parameters' covariance ``Σθ`` the pose error has the covariance ``E Σθ Eᵀ``;
+:func:`predicted_pose_errors` gives its RMS position error and RMS rotation angle (the
+rotation vector of the orientation error) at test poses, and
+:func:`predicted_pose_accuracy` the summary over the workspace that ``identify`` predicts and
+``validate`` measures.
+
+Imports :mod:`hexcal.core`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hexcal.core import (
+    Geometry,
+    as_poses,
+    euler_axes,
+    inverse_kinematics,
+    leg_readings,
+    pose_jacobian,
+    random_poses,
+    workspace_corners,
+)
+from hexcal.core.machine import leg_parameter_jacobian, pose_frames
+
+
+def machine_mask(
+    geometry: Geometry, mask: ArrayLike | None = None, names: tuple[str, ...] | None = None
+) -> NDArray:
+    """A mask over the geometry's machine parameters: given, from parameter ``names``, or the
+    default joints and ``l0``."""
+    all_names = geometry.machine_names()
+    if names is not None:
+        return np.isin(all_names, names)
+    if mask is None:
+        return np.array(geometry.machine_parameters().vary)
+    return np.asarray(mask, dtype=bool)
+
+
+def machine_jacobian(
+    geometry: Geometry, poses: ArrayLike, mask: ArrayLike | None = None
+) -> NDArray[np.float64]:
+    """Jacobian ``(m, 6, n)`` of the leg length residuals at poses a geometry reaches exactly
+    (readings from its own inverse kinematics), columns the machine parameters of ``mask``."""
+    flat = as_poses(poses).reshape(-1, 6)
+    readings = leg_readings(geometry, inverse_kinematics(geometry, flat))
+    rot, pos = pose_frames(flat, geometry.euler)
+    jac = leg_parameter_jacobian(
+        geometry.joint_block(), geometry.leg_block(), geometry.leg_model, rot, pos, readings, "length"
+    )
+    return jac[:, :, machine_mask(geometry, mask)]
+
+
+def pose_error_map(
+    geometry: Geometry, poses: ArrayLike, mask: ArrayLike | None = None
+) -> NDArray[np.float64]:
+    """First-order map from parameter errors to platform pose errors, shape (..., 6, n).
+
+    Parameters
+    ----------
+    geometry : Geometry
+        The controller's (nominal) geometry.
+    poses : array_like, shape (..., 6)
+        Commanded poses.
+    mask : array_like of bool, optional
+        Machine parameters with errors (default joints and ``l0``).
+
+    Returns
+    -------
+    ndarray, shape (..., 6, n)
+        ``E`` with ``δpose = E δθ`` (mm and rad per parameter unit).
+
+    Notes
+    -----
+    The controller commands the nominal leg readings of a pose; a machine whose
+    parameters differ by ``δθ`` reaches the pose where its leg equations
+    ``r = |o + R s_i - u_i| - (l0_i + g_i dl_i) = 0`` hold. To first order
+    ``J δpose + A δθ = 0``, so ``E = -J⁻¹ A`` with ``J`` the pose Jacobian and ``A`` the
+    identification Jacobian of the leg length residual.
+
+    Examples
+    --------
+    >>> from hexcal.core import preset
+    >>> machine = preset("paper-hmt")
+    >>> pose_error_map(machine, machine.home_pose).shape
+    (6, 42)
+    """
+    poses = as_poses(poses)
+    batch = poses.shape[:-1]
+    flat = poses.reshape(-1, 6)
+    a = machine_jacobian(geometry, flat, mask)
+    jac_inv = np.linalg.inv(pose_jacobian(geometry, flat))
+    out = -np.matmul(jac_inv, a)
+    return out.reshape(batch + out.shape[-2:])
+
+
+def rotation_vector_map(geometry: Geometry, poses: ArrayLike) -> NDArray[np.float64]:
+    """Matrices ``W`` (..., 3, 3) with ``ω = W δ(a, b, c)``: small angle changes to the
+    rotation vector of the orientation error, rad per rad (columns are the Euler axes).
+
+    >>> from hexcal.core import preset
+    >>> machine = preset("paper-hmt")
+    >>> rotation_vector_map(machine, np.zeros(6)).shape
+    (3, 3)
+    """
+    poses = as_poses(poses)
+    return np.swapaxes(euler_axes(poses[..., 3:], geometry.euler), -1, -2)
+
+
+def predicted_pose_errors(
+    geometry: Geometry,
+    test_poses: ArrayLike,
+    covariance: ArrayLike,
+    mask: ArrayLike | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """RMS position and orientation error after calibration at test poses.
+
+    Parameters
+    ----------
+    geometry : Geometry
+    test_poses : array_like, shape (t, 6)
+    covariance : array_like, shape (n, n)
+        Covariance of the identified parameters (parameter units).
+    mask : array_like of bool, shape (48,), optional
+
+    Returns
+    -------
+    position : ndarray, shape (t,), mm
+        ``sqrt(E[|δp|²])``.
+    orientation : ndarray, shape (t,), rad
+        ``sqrt(E[|ω|²])``, ``ω`` the rotation vector of the orientation error.
+
+    Notes
+    -----
+    A controller with the identified parameters misses a target by
+    ``δpose = E (θ̂ - θ)`` (:func:`pose_error_map`), whose covariance is ``E Σθ Eᵀ``.
+
+    Examples
+    --------
+    >>> from hexcal.core import preset
+    >>> machine = preset("paper-hmt")
+    >>> position, orientation = predicted_pose_errors(machine, [machine.home_pose], np.zeros((42, 42)))
+    >>> position.tolist(), orientation.tolist()
+    ([0.0], [0.0])
+    """
+    tp = as_poses(test_poses).reshape(-1, 6)
+    cov = np.asarray(covariance, dtype=float)
+    e = pose_error_map(geometry, tp, mask)
+    w = rotation_vector_map(geometry, tp)
+    e_pos = e[:, :3]
+    e_rot = np.einsum("tij,tjk->tik", w, e[:, 3:])
+    pos = np.einsum("tip,pq,tiq->t", e_pos, cov, e_pos)
+    rot = np.einsum("tip,pq,tiq->t", e_rot, cov, e_rot)
+    return np.sqrt(np.clip(pos, 0, None)), np.sqrt(np.clip(rot, 0, None))
+
+
+def predicted_pose_accuracy(
+    geometry: Geometry,
+    covariance: ArrayLike,
+    mask: ArrayLike | None = None,
+    n_random: int = 200,
+    seed: int = 0,
+) -> dict[str, float]:
+    """RMS and worst predicted pose error over the workspace after calibration.
+
+    The workspace corners and ``n_random`` uniform poses (seeded) are the test poses of
+    :func:`predicted_pose_errors`: ``position_rms_mm``, ``position_max_mm`` (mm),
+    ``orientation_rms_rad``, ``orientation_max_rad`` (rad, rotation angle), ``poses``.
+
+    >>> from hexcal.core import preset
+    >>> acc = predicted_pose_accuracy(preset("paper-hmt"), np.eye(42) * 1e-4)
+    >>> acc["poses"], acc["position_rms_mm"] > 0
+    (264, True)
+    """
+    poses = np.concatenate([workspace_corners(geometry), random_poses(geometry, n_random, seed)])
+    position, orientation = predicted_pose_errors(geometry, poses, covariance, mask)
+    return {
+        "position_rms_mm": float(np.sqrt(np.mean(position**2))),
+        "position_max_mm": float(position.max()),
+        "orientation_rms_rad": float(np.sqrt(np.mean(orientation**2))),
+        "orientation_max_rad": float(orientation.max()),
+        "poses": len(poses),
+    }
