@@ -14,7 +14,7 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import PARAMETER_NAMES, PARAMETER_SCALE, select_parameters
 from hexcal.core.workspace import random_poses
 from hexcal.errors import IdentificationError
-from hexcal.estimation.problem import identification_jacobian, identification_residuals
+from hexcal.estimation.uncertainty import identification_jacobian, identification_residuals
 from hexcal.instruments.pose import Measurements
 
 # true leg gains off by about 1e-3 (a leg moving 300 mm then errs by about 0.3 mm)

@@ -66,8 +66,7 @@ def test_cramer_rao_bound_matches_brute_force_fisher_information(true_machine, c
 
 def test_fisher_information_of_leg_noise_only_is_plain_least_squares_information(true_machine, corner_poses):
     """Without pose noise the information is AᵀA / σ² with A the identification Jacobian."""
-    from hexcal.estimation.problem import identification_jacobian
-    from hexcal.estimation.uncertainty import planned_measurements
+    from hexcal.estimation.uncertainty import identification_jacobian, planned_measurements
 
     noise = NoiseModel(leg=0.02, position=0, orientation=0, distribution="normal")
     a = identification_jacobian(true_machine, planned_measurements(true_machine, corner_poses))

@@ -36,7 +36,8 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import PARAMETER_NAMES, select_parameters
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses, workspace_corners
-from hexcal.estimation.outliers import DEFAULT_ALPHA, identify_robust, pose_diagnostics
+from hexcal.estimation.outliers import DEFAULT_ALPHA, pose_diagnostics
+from hexcal.estimation.robust import identify_robust
 from hexcal.instruments.pose import Measurements
 from hexcal.io import read_measurements, write_measurements
 from hexcal.report.text import format_identification_report, identification_summary

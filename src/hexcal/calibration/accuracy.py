@@ -119,6 +119,7 @@ def predicted_pose_errors(
     test_poses: ArrayLike,
     covariance: ArrayLike,
     mask: ArrayLike | None = None,
+    rigid: ArrayLike | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """RMS position and orientation error after calibration at test poses.
 
@@ -128,7 +129,12 @@ def predicted_pose_errors(
     test_poses : array_like, shape (t, 6)
     covariance : array_like, shape (n, n)
         Covariance of the identified parameters (parameter units).
-    mask : array_like of bool, shape (48,), optional
+    mask : array_like of bool, optional
+        Machine parameters of the covariance (default joints and ``l0``).
+    rigid : array_like, shape (n, g), optional
+        Parameter directions whose pose errors are rigid motions of the workspace (the gauge
+        freedoms of an instrument in its own frame): removed as re-registering the frames
+        would (:func:`without_rigid_motions`).
 
     Returns
     -------
@@ -156,9 +162,30 @@ def predicted_pose_errors(
     w = rotation_vector_map(geometry, tp)
     e_pos = e[:, :3]
     e_rot = np.einsum("tij,tjk->tik", w, e[:, 3:])
+    if rigid is not None and np.size(rigid):
+        cov = without_rigid_motions(cov, e_pos, e_rot, np.asarray(rigid, dtype=float), geometry)
     pos = np.einsum("tip,pq,tiq->t", e_pos, cov, e_pos)
     rot = np.einsum("tip,pq,tiq->t", e_rot, cov, e_rot)
     return np.sqrt(np.clip(pos, 0, None)), np.sqrt(np.clip(rot, 0, None))
+
+
+def without_rigid_motions(
+    covariance: NDArray[np.float64],
+    e_pos: NDArray[np.float64],
+    e_rot: NDArray[np.float64],
+    rigid: NDArray[np.float64],
+    geometry: Geometry,
+) -> NDArray[np.float64]:
+    """The parameter covariance with the directions ``rigid`` (n, g) projected out as a
+    re-registration of the frames removes them: the pose errors along them are rigid motions of
+    the workspace (gauge freedoms), so the projection is the one that minimises the pose error
+    over the test poses (angles weighted by the platform radius, so a milliradian at the edge
+    of the platform counts as its displacement)."""
+    radius = float(np.max(np.linalg.norm(geometry.platform_joints[:, :2], axis=1)))
+    metric = np.einsum("tip,tiq->pq", e_pos, e_pos) + radius**2 * np.einsum("tip,tiq->pq", e_rot, e_rot)
+    mg = metric @ rigid
+    proj = np.eye(len(covariance)) - rigid @ np.linalg.pinv(rigid.T @ mg) @ mg.T
+    return proj @ covariance @ proj.T
 
 
 def predicted_pose_accuracy(
@@ -167,6 +194,7 @@ def predicted_pose_accuracy(
     mask: ArrayLike | None = None,
     n_random: int = 200,
     seed: int = 0,
+    rigid: ArrayLike | None = None,
 ) -> dict[str, float]:
     """RMS and worst predicted pose error over the workspace after calibration.
 
@@ -180,7 +208,7 @@ def predicted_pose_accuracy(
     (264, True)
     """
     poses = np.concatenate([workspace_corners(geometry), random_poses(geometry, n_random, seed)])
-    position, orientation = predicted_pose_errors(geometry, poses, covariance, mask)
+    position, orientation = predicted_pose_errors(geometry, poses, covariance, mask, rigid)
     return {
         "position_rms_mm": float(np.sqrt(np.mean(position**2))),
         "position_max_mm": float(position.max()),

@@ -46,9 +46,12 @@ class ValidationResult:
     position_error, orientation_error : ndarray, shape (m,)
         Distance (mm) and rotation angle (rad) between model and measured platform poses.
     instrument_errors : dict of str to ndarray
-        The instrument's own prediction errors (``target`` distances, ``position``, ...).
+        The instrument's own prediction errors (``target`` distances ``(m, n)``, ``position``,
+        ...).
     instrument : str
         What the instrument is.
+    value_labels : tuple of str
+        Labels of the columns of a per-value error (the targets ``t1``, ...).
     """
 
     ids: tuple[str, ...]
@@ -58,6 +61,7 @@ class ValidationResult:
     orientation_error: NDArray[np.float64]
     instrument_errors: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     instrument: str = "full pose in the base frame"
+    value_labels: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, object]:
         """Summary and per-observation errors, JSON-ready (mm and rad)."""
@@ -173,4 +177,5 @@ def validate(geometry: Geometry, data: Any, instrument: MeasurementModel | None 
     else:  # NaN where the instrument gives no pose
         position, orientation = pose_errors(fk.poses, measured, geometry.euler)
     errors = {} if inst.determines_pose else inst.errors(setup, fk.poses, values, geometry.euler)
-    return ValidationResult(ids, residuals, fk.poses, position, orientation, errors, inst.describe())
+    labels = tuple(label.split()[-1] for label, _ in inst.value_groups())
+    return ValidationResult(ids, residuals, fk.poses, position, orientation, errors, inst.describe(), labels)

@@ -326,12 +326,15 @@ def assess(
     rows = np.array([n in machine for n in names])
     if accuracy and rows.any() and np.all(np.isfinite(result.covariance[np.ix_(rows, rows)])):
         cov = result.covariance[np.ix_(rows, rows)]
-        acc = predicted_pose_accuracy(result.geometry, cov, machine_mask(result.geometry, names=names))
+        rigid = None if result.gauge_directions is None else result.gauge_directions[rows]
+        mask = machine_mask(result.geometry, names=names)
+        acc = predicted_pose_accuracy(result.geometry, cov, mask, rigid=rigid)
         reasons.append(
             Reason(
                 "predicted-accuracy",
                 "info",
-                f"predicted pose error after calibration over the workspace: position RMS "
+                f"predicted pose error after calibration over the workspace{_rigid_note(rigid)}: "
+                f"position RMS "
                 f"{acc['position_rms_mm']:.3g} mm (worst {acc['position_max_mm']:.3g}), orientation RMS "
                 f"{acc['orientation_rms_rad']:.3g} rad (worst {acc['orientation_max_rad']:.3g})",
                 acc,
@@ -344,8 +347,12 @@ def assess(
     return verdict
 
 
+def _rigid_note(rigid: Any) -> str:
+    return "" if rigid is None else " (up to the frames, re-registered as validate does)"
+
+
 def _outlier_reasons(result: Any, problem: Any, noise: Any) -> list[Reason]:
-    from hexcal.estimation.outliers import screen_poses
+    from hexcal.estimation.robust import screen_poses
 
     if len(problem) != result.n_poses:
         return []

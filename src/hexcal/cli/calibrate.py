@@ -1,5 +1,11 @@
 """Calibration subcommands of ``hexcal``: ``identify``, ``validate`` and ``synthesize``.
 
+Every instrument takes the same path: a data file is read with its setup (``--setup``; none
+for the full pose in the base frame) into a session, and the library does the rest
+(:func:`hexcal.calibration.estimate`, :func:`hexcal.calibration.validate`,
+:func:`hexcal.simulation.simulate_session`). ``--data`` and ``--setup`` may be repeated: pairs in
+order, one setup for every data file, or none.
+
 Imports only the standard library and :mod:`hexcal.cli.common` at its top; each command
 imports the library parts it needs when it runs, calls the library and renders the result
 through :mod:`hexcal.report`.
@@ -15,7 +21,6 @@ from hexcal.cli.common import (
     GEOMETRY_HELP,
     CommandError,
     check_outputs,
-    fit_mask,
     inputs_record,
     load_geometry,
     noise_from_args,
@@ -27,12 +32,16 @@ from hexcal.cli.common import (
 
 #: Default ``--sigma-limit``: a parameter combination whose predicted σ exceeds this
 #: fraction of the platform radius is poorly determined (``warn``), beyond three times it
-#: not determined by the data (``fail``); gains: 1e-3 per mm of the length limit.
+#: not determined by the data (``fail``); gains: 1e-3 (relative) per mm of the length limit.
 SIGMA_LIMIT = 0.2
 
 #: Default ``--max-change``: a change beyond this fraction of the machine's size (base radius
-#: for ``u``, platform radius for ``s``, the larger for ``l0``; of 1 for gains) is implausible.
+#: for ``u``, platform radius for ``s``, the larger for ``l0``; of the gain for gains) is
+#: implausible.
 MAX_CHANGE = 0.25
+
+#: ``--delimiter`` values and the characters they stand for.
+DELIMITER_WORDS = {",": ",", ";": ";", "tab": "\t"}
 
 
 def identify_noise(args: argparse.Namespace) -> Any:
@@ -45,16 +54,50 @@ def identify_noise(args: argparse.Namespace) -> Any:
     return noise_from_args(args)
 
 
-def cmd_identify(args: argparse.Namespace) -> None:
-    """Identify the parameters from a measurement file; write the calibrated geometry."""
-    if args.setup:  # an instrument setup: cli/instrument.py
-        from hexcal.cli.instrument import identify_with_setup
+def read_sessions(args: argparse.Namespace, geometry: Any) -> list[Any]:
+    """The sessions of ``--data`` and ``--setup`` (pairs in order, one setup for all, or none)."""
+    from hexcal.io import read_sessions as read
 
-        return identify_with_setup(args)
+    word = getattr(args, "delimiter", None)
+    delimiter = None if word is None else DELIMITER_WORDS[word]
+    return read(args.data, args.setup or [], geometry.euler, delimiter, getattr(args, "decimal", None))
+
+
+def _setup_outputs(args: argparse.Namespace) -> list[str]:
+    """The calibrated setups ``--setup-out`` names: a file for one data file, else one file per
+    session in the folder ``--setup-out`` (declared now, before any work)."""
+    from pathlib import Path
+
+    from hexcal.io import active_outputs
+
+    if not args.setup_out:
+        return []
+    if not args.setup:
+        raise CommandError("--setup-out: the data have no setup (give --setup) to calibrate")
+    outputs = active_outputs()
+    if len(args.data) == 1:
+        paths = [args.setup_out]
+    else:
+        folder = Path(args.setup_out)
+        if folder.exists() and not folder.is_dir():
+            raise CommandError(f"--setup-out {folder}: with {len(args.data)} data files this is a folder")
+        if outputs is not None:
+            outputs.folder(folder)
+        paths = [str(folder / f"{Path(d).stem}-setup.yaml") for d in args.data]
+        if len(set(paths)) < len(paths):
+            raise CommandError("--setup-out: two data files have the same name; give them distinct names")
+    for path in paths:
+        if outputs is not None:
+            outputs.add(path)
+    return paths
+
+
+def cmd_identify(args: argparse.Namespace) -> None:
+    """Identify the machine from measurement sessions; write the calibrated geometry."""
     import numpy as np
 
     from hexcal.calibration import estimate
-    from hexcal.io import atomic_write, read_measurements, save_geometry
+    from hexcal.io import atomic_write, save_geometry, save_setup_dict
     from hexcal.report import identification_dict, identification_report_dict, render
 
     check_outputs(args.out, args.report, args.json, args.html)
@@ -62,31 +105,25 @@ def cmd_identify(args: argparse.Namespace) -> None:
         raise CommandError(f"--sigma-limit must be > 0, got {args.sigma_limit}")
     if not args.max_change > 0:
         raise CommandError(f"--max-change must be > 0, got {args.max_change}")
+    setup_paths = _setup_outputs(args)
     nominal = load_geometry(args.geometry, args.euler)
-    data = read_measurements(args.data, nominal.euler)
+    sessions = read_sessions(args, nominal)
     noise = identify_noise(args)
-    mask = fit_mask(args.fit, args.fix or (), option=None)
-    if args.robust:  # refuse too few poses by the file's count, before any pose is set aside
-        from hexcal.estimation import Problem
-
-        Problem(nominal, data, mask=mask).check_size()
     # limits relative to the machine: the library's are 1 mm (1e-3 for gains) per unit of scale
     radius = float(np.max(np.linalg.norm(nominal.platform_joints[:, :2], axis=1)))
-    scale = args.sigma_limit * radius
-    # the pose check runs on the generalised least-squares fit (its whitened deletion statistic
-    # follows a known F distribution); --robust wraps the chosen estimator itself
     result = estimate(
         nominal,
-        data,
+        sessions,
         args.method,
-        mask,
-        noise,
+        noise=noise,
+        fit=args.fit,
+        fix=args.fix or (),
         robust=args.robust,
-        sigma_limit=scale,
+        sigma_limit=args.sigma_limit * radius,
         max_change=args.max_change,
     )
-    outliers, flagged = result.outliers, result.flagged
-    text = render("identification", identification_report_dict(result, outliers, flagged))
+    report = identification_report_dict(result)
+    text = render("identification", report)
     if result.failed and not args.force:
         print(text)
         reasons = result.verdict.reasons
@@ -96,93 +133,118 @@ def cmd_identify(args: argparse.Namespace) -> None:
             f"verdict fail: {'; '.join(serious)}; nothing written (--force writes the geometry anyway)"
         )
     calibration = result.calibration_metadata()
-    calibration["data"] = str(args.data)
-    calibration["outliers"] = list(outliers)
-    if result.verdict is not None:
-        calibration["verdict"] = result.verdict_status
+    calibration["data"] = [str(d) for d in args.data] if len(args.data) > 1 else str(args.data[0])
+    if args.setup:
+        calibration["setup"] = [str(s) for s in args.setup] if len(args.setup) > 1 else str(args.setup[0])
+    calibration["outliers"] = list(result.outliers)
+    if result.convention:
+        calibration["gauge"] = result.convention
     name = f"{nominal.name}-calibrated" if nominal.name else "calibrated"
     save_geometry(result.geometry.replace(name=name, calibration=calibration), args.out)
+    for path, instrument in zip(setup_paths, result.calibrated_instruments(), strict=False):
+        save_setup_dict(instrument.setup_dict(), path)
     if args.report:
         with atomic_write(args.report) as fh:
             fh.write(text + "\n")
     if args.json:
         with atomic_write(args.json) as fh:
-            fh.write(render("identification", identification_dict(result, outliers, flagged), "json"))
+            fh.write(render("identification", identification_dict(result), "json"))
     if args.html:
         from hexcal.report import identification_report, render_html
 
-        inputs = inputs_record({"geometry": args.geometry, "data": args.data}, args)
+        files = {"geometry": args.geometry} | {f"data {k + 1}": d for k, d in enumerate(args.data)}
+        files |= {f"setup {k + 1}": s for k, s in enumerate(args.setup or [])}
         with atomic_write(args.html) as fh:
-            fh.write(render_html(identification_report(result, data, inputs)))
+            fh.write(render_html(identification_report(result, inputs_record(files, args))))
     print(text)
     if result.failed:
         warn(f"hexcal: warning: verdict fail, written anyway (--force) to {args.out}")
     print(f"wrote the calibrated geometry to {args.out}")
+    for path in setup_paths:
+        print(f"wrote the calibrated setup to {path}")
+    unsaved = [s.label for s in sessions if s.instrument.unregistered]
+    if unsaved and not setup_paths:
+        warn(
+            "hexcal: warning: the registered frame is not saved: give --setup-out FILE to validate later"
+            + (f" ({', '.join(unsaved)})" if len(sessions) > 1 else "")
+        )
 
 
 def cmd_validate(args: argparse.Namespace) -> None:
-    """Pose errors of a geometry (and optionally the nominal one) on held-out measurements."""
-    if args.setup:  # an instrument setup: cli/instrument.py
-        from hexcal.cli.instrument import validate_with_setup
-
-        return validate_with_setup(args)
+    """Prediction errors of a calibration (and optionally the nominal geometry) on held-out data."""
     from hexcal.calibration import validate
-    from hexcal.io import read_measurements, write_table
+    from hexcal.io import write_table
     from hexcal.report import render, validation_dict, validation_table
 
     check_outputs(args.out, args.html)
     geometry = load_geometry(args.geometry, args.euler)
-    data = read_measurements(args.data, geometry.euler)
-    calibrated = validate(geometry, data)
-    nominal = validate(load_geometry(args.nominal, geometry.euler), data) if args.nominal else None
+    sessions = read_sessions(args, geometry)
+    if len(sessions) != 1:
+        raise CommandError("validate: give one --data file (validate each session on its own)")
+    session = sessions[0]
+    if args.nominal and not session.instrument.determines_pose:
+        raise CommandError(
+            "--nominal with a setup whose frame or tool were calibrated with the machine: validate the "
+            "nominal machine with its own identified setup instead"
+        )
+    calibrated = validate(geometry, session)
+    nominal = validate(load_geometry(args.nominal, geometry.euler), session) if args.nominal else None
     print(render("validation", validation_dict(calibrated, nominal)))
     if args.out:
-        columns, rows, ids, comment = validation_table(calibrated, nominal, data.ids)
-        write_table(args.out, columns, rows, ids, comment=comment)
+        columns, rows, ids, comment = validation_table(calibrated, nominal, calibrated.ids)
+        write_table(args.out, columns, rows, ids, comment=comment, missing=True)
         print(f"wrote the per-pose table to {args.out}")
     if args.html:
         from hexcal.io import atomic_write
         from hexcal.report import render_html, validation_report
 
         results = {"calibrated": calibrated} | ({"nominal": nominal} if nominal else {})
-        files = {"geometry": args.geometry, "data": args.data} | (
+        files = {"geometry": args.geometry, "data": args.data[0]} | (
             {"nominal": args.nominal} if args.nominal else {}
         )
+        if args.setup:
+            files["setup"] = args.setup[0]
         with atomic_write(args.html) as fh:
             fh.write(render_html(validation_report(results, inputs_record(files, args))))
         print(f"wrote the HTML report to {args.html}")
 
 
 def cmd_synthesize(args: argparse.Namespace) -> None:
-    """A simulated measurement file of a known machine."""
-    if args.setup:  # an instrument setup: cli/instrument.py
-        from hexcal.cli.instrument import synthesize_with_setup
-
-        return synthesize_with_setup(args)
-    from hexcal.io import read_poses, write_measurements
-    from hexcal.simulation import simulate_measurements
+    """A simulated data file of a known machine (and instrument setup)."""
+    from hexcal.instruments import instrument_for
+    from hexcal.io import load_setup, read_poses, write_session_data
+    from hexcal.simulation import simulate_session
 
     check_outputs(args.out)
     nominal = load_geometry(args.nominal, args.euler)
     true = load_geometry(args.true, nominal.euler)
+    setup = load_setup(args.setup).in_euler(nominal.euler) if args.setup else None
+    instrument = instrument_for(setup)
+    if instrument.unregistered:
+        raise CommandError(f"{args.setup}: simulation needs the true instrument frame, not auto")
     poses, ids = read_poses(args.poses, nominal.euler)
     noise = parse_noise(args.noise, args.noise_dist)
-    data = simulate_measurements(nominal, true, poses, noise, args.seed, ids)
-    write_measurements(
-        args.out,
-        data,
-        nominal.euler,
-        args.orientation,
-        comment=f"simulated: nominal {args.nominal}, true {args.true}, seed {args.seed}, noise {noise}",
-    )
-    print(f"wrote {len(data)} simulated measurement(s) to {args.out}")
+    options = {"missing_rate": args.missing_rate} if args.missing_rate else {}
+    session = simulate_session(nominal, true, instrument, poses, noise, args.seed, tuple(ids), **options)
+    comment = f"simulated: nominal {args.nominal}, true {args.true}, seed {args.seed}, noise {noise}"
+    if args.setup:
+        comment += f", setup {args.setup}" + (
+            f", missing rate {args.missing_rate:g}" if args.missing_rate else ""
+        )
+    write_session_data(args.out, session, nominal.euler, args.orientation, comment)
+    print(f"wrote {len(session)} simulated observation(s) of {instrument.describe()} to {args.out}")
 
 
 def register(sub: Any) -> None:
     """Add ``identify``, ``validate`` and ``synthesize`` to the subparsers."""
-    p = sub.add_parser("identify", help="identify the kinematic parameters from a measurement file")
+    p = sub.add_parser("identify", help="identify the kinematic parameters from measurement sessions")
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
-    p.add_argument("--data", required=True, help="measurement CSV file (dl1..dl6 and the measured pose)")
+    p.add_argument(
+        "--data",
+        required=True,
+        action="append",
+        help="measurement CSV file (dl1..dl6 and what the instrument measured); repeat for several sessions",
+    )
     p.add_argument("--out", required=True, help="calibrated geometry YAML file to write")
     from hexcal.estimation.registry import DEFAULT_ESTIMATOR, ESTIMATORS  # names only: no numpy
 
@@ -191,27 +253,32 @@ def register(sub: Any) -> None:
         choices=tuple(ESTIMATORS),
         default=DEFAULT_ESTIMATOR,
         help="estimator: maximum likelihood (default), generalised least squares, least squares "
-        "on leg lengths, or the seed paper's squared lengths (eq. 3)",
+        "on leg lengths, or the seed paper's squared lengths (eq. 3); the last three need the "
+        "platform pose measured (no free instrument frame or tool)",
     )
     noise_options(p)
     for action in p._actions:  # identify's own default: the noise learned from the data
         if action.dest == "noise":
             action.help = (
-                "measurement noise: auto (learned from the data: the default when neither --noise nor "
-                "--pose-covariance is given) or leg=MM,pos=MM,ang=RAD"
+                "measurement noise: auto (learned from the data, per session and group: the default when "
+                "neither --noise nor --pose-covariance is given) or leg=MM,pos=MM,ang=RAD"
             )
         elif action.dest == "noise_dist":
             action.help += " (default %(default)s)"
     p.add_argument(
         "--fit",
         default="joints,l0",
-        help="parameter groups: joints, base, platform, l0, gains (default %(default)s)",
+        help="machine parameter groups: joints, base, platform, l0, gains (default %(default)s); the "
+        "instrument quantities a setup does not fix vary too",
     )
     p.add_argument(
-        "--fix", nargs="+", metavar="NAME", help="parameters to hold, e.g. u1.z l0_1 (default: none)"
+        "--fix",
+        nargs="+",
+        metavar="NAME",
+        help="parameters or groups to hold, e.g. u1.z l0_1 frame (default: none)",
     )
     p.add_argument(
-        "--robust", action="store_true", help="find and leave out outlying poses (default: keep every pose)"
+        "--robust", action="store_true", help="find and leave out outliers (default: keep every observation)"
     )
     p.add_argument(
         "--force",
@@ -225,7 +292,7 @@ def register(sub: Any) -> None:
         metavar="FRACTION",
         help="identifiability limit: a parameter combination whose predicted σ exceeds this fraction of "
         "the platform radius is poorly determined (warn), beyond 3 times it undetermined (fail); gains: "
-        "1e-3 per mm of that limit (default %(default)s)",
+        "1e-3 (relative) per mm of that limit (default %(default)s)",
     )
     p.add_argument(
         "--max-change",
@@ -233,7 +300,7 @@ def register(sub: Any) -> None:
         default=MAX_CHANGE,
         metavar="FRACTION",
         help="a parameter change beyond this fraction of the machine's size (base radius for u, platform "
-        "radius for s, the larger for l0, 1 for gains) is implausible: fail (default %(default)s)",
+        "radius for s, the larger for l0, the gain for gains) is implausible: fail (default %(default)s)",
     )
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--report", help="save the report as text (default: not saved)")
@@ -241,25 +308,40 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--html", metavar="FILE", help="save a self-contained HTML report (verdict, tables, figures)"
     )
-    p.add_argument("--setup", metavar="FILE", help="instrument setup YAML (targets or tool; frame or auto)")
-    p.add_argument("--setup-out", metavar="FILE", help="with --setup: calibrated setup YAML to write")
+    p.add_argument(
+        "--setup",
+        metavar="FILE",
+        action="append",
+        help="instrument setup YAML (targets or tool; frame or auto): once for every --data, or once "
+        "per --data",
+    )
+    p.add_argument(
+        "--setup-out",
+        metavar="PATH",
+        help="calibrated setup YAML to write (one --data), or a folder for one per session (several)",
+    )
     p.add_argument("--delimiter", choices=(",", ";", "tab"), help="export field separator (default: sniffed)")
     p.add_argument("--decimal", choices=(".", ","), help="export decimal mark (default: detected)")
     p.set_defaults(
         func=cmd_identify,
         inputs=("geometry", "data", "pose_covariance", "setup"),
-        outputs=("out", "report", "json", "html", "setup_out"),
+        outputs=("out", "report", "json", "html"),
         folders=(),
     )
 
-    p = sub.add_parser("validate", help="pose errors of a geometry on held-out measurements")
+    p = sub.add_parser("validate", help="prediction errors of a calibration on held-out measurements")
     p.add_argument("--geometry", required=True, help=f"calibrated {GEOMETRY_HELP}")
-    p.add_argument("--data", required=True, help="held-out measurement CSV file")
+    p.add_argument("--data", required=True, action="append", help="held-out measurement CSV file")
     p.add_argument("--nominal", help="also validate this geometry, side by side")
     p.add_argument("--out", help="per-pose table CSV file")
     p.add_argument("--html", metavar="FILE", help="save a self-contained HTML report with figures")
     p.add_argument("--euler", help=EULER_HELP)
-    p.add_argument("--setup", metavar="FILE", help="calibrated setup YAML: --data is an instrument export")
+    p.add_argument(
+        "--setup",
+        metavar="FILE",
+        action="append",
+        help="calibrated setup YAML: --data is an instrument export",
+    )
     p.add_argument("--delimiter", choices=(",", ";", "tab"), help="export field separator (default: sniffed)")
     p.add_argument("--decimal", choices=(".", ","), help="export decimal mark (default: detected)")
     p.set_defaults(
@@ -279,7 +361,7 @@ def register(sub: Any) -> None:
     p.add_argument("--orientation", choices=("rad", "deg", "quat"), default="rad")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--euler", help="Euler sequence of the angles (default: the nominal geometry's)")
-    p.add_argument("--setup", metavar="FILE", help="true instrument setup YAML: write an instrument export")
+    p.add_argument("--setup", metavar="FILE", help="true instrument setup YAML: write what it records")
     p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
     p.set_defaults(
         func=cmd_synthesize, inputs=("nominal", "true", "poses", "setup"), outputs=("out",), folders=()

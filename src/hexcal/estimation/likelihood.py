@@ -260,7 +260,7 @@ def fit_ml(
     dof = int(problem.observation_counts().sum()) - (problem.n_free - gauge.size)
     # the leg residuals at the measured poses where the instrument gives them, else at the
     # estimated true poses
-    legs = None if problem.determines_pose else (rms(inner.leg_residuals(x0)), rms(inner.leg_residuals(x)))
+    legs = None if problem.determines_pose else (inner.leg_residuals(x0), inner.leg_residuals(x))
     return finish_result(
         problem,
         "ml",
@@ -270,9 +270,9 @@ def fit_ml(
         rms_before,
         sol,
         dof=dof,
-        leg_rms=legs,
+        leg_residuals=legs,
         gauge=gauge,
-        poses=inner.poses(x),
+        poses=None if problem.determines_pose else inner.poses(x),
         blocks=inner.blocks(x),
         noises=noises,
     )

@@ -30,93 +30,14 @@ from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import pose_jacobian_from_arrays
 from hexcal.core.linalg import null_space, numerical_rank, scaled_svd
 from hexcal.core.machine import check_variant, leg_parameter_jacobian, leg_residuals, pose_frames
-from hexcal.core.parameters import DEFAULT_FIT, ParameterSet, select_parameters
+from hexcal.core.parameters import ParameterSet
 from hexcal.errors import IdentificationError, UsageError
+from hexcal.estimation.sessions import as_sessions, problem_parameters, session_labels
 from hexcal.instruments.base import MeasurementModel, Session
-from hexcal.instruments.registry import full_pose
 
 Functions = tuple[
     Callable[[NDArray[np.float64]], NDArray[np.float64]], Callable[[NDArray[np.float64]], NDArray]
 ]
-
-
-def as_sessions(data: Any, model: MeasurementModel | None = None) -> tuple[Session, ...]:
-    """Sessions of ``data``: a session or a sequence of sessions as they are, or one data set
-    read by ``model`` (default the full pose in the base frame)."""
-    if isinstance(data, Session):
-        return (data,)
-    if isinstance(data, Sequence) and data and all(isinstance(s, Session) for s in data):
-        if model is not None:
-            raise UsageError("give the instrument with each session, not as model=")
-        return tuple(data)
-    return (Session(data, full_pose() if model is None else model),)
-
-
-def session_labels(sessions: Sequence[Session]) -> tuple[str, ...]:
-    """Each session's label (its own, else ``session k``), made unique."""
-    labels: list[str] = []
-    for k, s in enumerate(sessions, start=1):
-        label = s.label or f"session {k}"
-        if label in labels:
-            label = f"{label} ({k})"
-        labels.append(label)
-    return tuple(labels)
-
-
-def _prefixed(params: ParameterSet, prefix: str) -> ParameterSet:
-    """A session's instrument parameters with ``prefix`` on every name and group."""
-    names = tuple(prefix + n for n in params.names)
-    groups = {prefix + g: tuple(prefix + n for n in v) for g, v in params.groups.items()}
-    groups |= {g: tuple(prefix + n for n in v) for g, v in params.groups.items()}  # shared groups
-    return ParameterSet(names, params.values, params.vary, params.scales, groups, params.blocks)
-
-
-def problem_parameters(
-    start: Geometry,
-    sessions: Sequence[Session],
-    mask: ArrayLike | None = None,
-    fit: str | Sequence[str] | None = None,
-    fix: Iterable[str] = (),
-) -> ParameterSet:
-    """The machine's blocks and each session's instrument block, varied as asked.
-
-    ``fit`` names groups (default ``joints,l0`` and every instrument group), ``fix`` names
-    or groups to hold; a ``mask`` over the 48 parameters of linear legs (or over all) replaces
-    ``fit``. Quantities an instrument fixes (its setup's ``fixed``) never vary.
-    """
-    machine = start.machine_parameters(DEFAULT_FIT)
-    many = len(sessions) > 1
-    blocks = []
-    for k, session in enumerate(sessions):
-        own = session.instrument.parameters()
-        own = _prefixed(own, f"session{k + 1}.") if many else own
-        blocks.append((f"setup.{k}", own))
-    params = machine
-    held = []
-    for key, own in blocks:
-        sub = ParameterSet(own.names, own.values, own.vary, own.scales, own.groups, {key: (0, len(own))})
-        params = params + sub
-        held.append(own.vary)
-    instrument_held = np.concatenate([np.ones(len(machine), bool), *held])
-    if mask is not None:
-        flags = np.asarray(mask, dtype=bool)
-        if flags.shape == (len(machine),):
-            flags = np.concatenate([flags, *held]) if held else flags
-        if flags.shape != (len(params),):
-            raise UsageError(f"mask must have shape ({len(machine)},) or ({len(params)},), got {flags.shape}")
-        vary = flags & instrument_held
-    else:
-        if fit is None:
-            instrument_groups = [g for _, own in blocks for g in own.groups if "." not in g]
-            fit = ",".join([DEFAULT_FIT, *dict.fromkeys(instrument_groups)])
-        fix = list(fix)
-        for group in [f for f in fix if f in params.groups]:  # a group name holds the whole group
-            fix.remove(group)
-            fix.extend(params.groups[group])
-        vary = np.array(params.select(fit, fix).vary) & instrument_held
-    if not vary.any():
-        raise UsageError("no parameter left to identify")
-    return params.with_vary(vary)
 
 
 @dataclass(frozen=True, eq=False)
@@ -486,48 +407,3 @@ class Problem:
     def observation_counts(self) -> NDArray[np.intp]:
         """Equations per observation after the six pose unknowns: ``6 + present values - 6``."""
         return np.concatenate([p.present.sum(axis=1) for p in self.parts])
-
-
-def measurements_problem(geometry: Geometry, measurements: Any, mask: ArrayLike | None = None) -> Problem:
-    """A full-pose :class:`Problem` (the form most of hexcal's planning code uses)."""
-    return Problem(geometry, measurements, full_pose(), mask)
-
-
-def identification_residuals(
-    geometry: Geometry, measurements: Any, method: str = "length"
-) -> NDArray[np.float64]:
-    """Leg residuals of every measured pose for ``geometry``, shape ``(m, 6)``.
-
-    Units: mm for ``"length"``, mm² for ``"paper"``.
-    """
-    check_variant(method)
-    problem = measurements_problem(geometry, measurements)
-    return problem.leg_residuals(problem.full0, method)
-
-
-def identification_jacobian(
-    geometry: Geometry,
-    measurements: Any,
-    method: str = "length",
-    mask: ArrayLike | None = None,
-) -> NDArray[np.float64]:
-    """Analytic Jacobian of the leg residuals at the measured poses, parameter units.
-
-    Parameters
-    ----------
-    geometry : Geometry
-        Parameters at which to evaluate.
-    measurements : Measurements
-    method : {"length", "paper"}
-    mask : array_like of bool, optional
-        Machine parameters to keep (columns); default the joints and ``l0``.
-
-    Returns
-    -------
-    ndarray, shape (6 m, n_selected)
-        Row ``6 j + i`` is pose ``j``, leg ``i``; columns in parameter order.
-    """
-    check_variant(method)
-    mask = select_parameters() if mask is None else mask
-    problem = measurements_problem(geometry, measurements, mask)
-    return problem.leg_jacobian(problem.full0, method, scaled=False)

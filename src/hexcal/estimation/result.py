@@ -95,6 +95,11 @@ class IdentificationResult:
         The estimated true poses (maximum likelihood).
     noises : tuple of NoiseModel
         The noise model of each session.
+    gauge_directions : ndarray, shape (n, g), optional
+        The gauge freedoms as directions of the varied parameters (parameter units).
+    leg_residuals_before, leg_residuals_after : ndarray, shape (m, 6), optional
+        Leg residuals (mm) of every observation at the start and at the solution: at the
+        measured poses where the instruments give them, else at the estimated true poses.
     """
 
     geometry: Geometry
@@ -139,11 +144,27 @@ class IdentificationResult:
     convention: str = ""
     poses: NDArray[np.float64] | None = None
     noises: tuple[NoiseModel, ...] = ()
+    leg_residuals_before: NDArray[np.float64] | None = None
+    leg_residuals_after: NDArray[np.float64] | None = None
+    gauge_directions: NDArray[np.float64] | None = None
 
-    @property
-    def setups(self) -> tuple[Any, ...]:
-        """Each session's calibrated setup (None for an instrument without one)."""
-        return tuple(getattr(inst, "setup", None) for inst in self.instruments)
+    def calibrated_instruments(self) -> tuple[Any, ...]:
+        """Each session's instrument at its identified values, with the ``calibration`` mapping
+        of a calibrated setup: method, observations, standard errors by name, the gauge
+        convention and the registration residual."""
+        out = []
+        for k, (inst, info) in enumerate(zip(self.instruments, self.session_dicts(), strict=True)):
+            calibration: dict[str, Any] = {
+                "method": self.method,
+                "poses": info["observations"],
+                "stderr": {n: v["stderr"] for n, v in info["setup"].items() if v["stderr"] is not None},
+                "gauge": self.convention or "none",
+            }
+            reg = self.registrations[k] if k < len(self.registrations) else None
+            if reg is not None:
+                calibration["registration_rms_mm"] = reg.rms
+            out.append(inst.with_values(inst.parameters().values, calibration))
+        return tuple(out)
 
     @property
     def verdict_status(self) -> str:
@@ -197,7 +218,8 @@ class IdentificationResult:
         return out
 
     def noise_dict(self) -> dict[str, Any] | None:
-        """The noise model used as standard deviations (mm, mm, rad) and its source."""
+        """The noise model used as standard deviations (mm, mm, rad) and its source: the first
+        session's at the top, every group of every session under ``groups``."""
         if self.noise is None:
             return None
         leg, pos, ang = self.noise.sigmas
@@ -209,11 +231,56 @@ class IdentificationResult:
             "distribution": self.noise.distribution,
             "sigmas": {"leg": leg, "position": pos, "orientation": ang},
         }
-        if self.noise_estimate is not None:
-            est = self.noise_estimate
-            out["stderr"] = dict(zip(est.groups, est.stderr.tolist(), strict=True))
+        est = self.noise_estimate
+        if est is not None:
+            first = [k for k, (s, _) in enumerate(est.keys) if s == 0]
+            out["stderr"] = {est.keys[k][1]: float(est.stderr[k]) for k in first}
+            out["groups"] = [
+                {
+                    "session": self.sessions[s] if s < len(self.sessions) else s,
+                    "group": name,
+                    "label": est.groups[k],
+                    "sigma": float(est.sigmas[k]),
+                    "stderr": float(est.stderr[k]),
+                    "unit": est.units()[k],
+                    "estimated": bool(est.estimated[k]),
+                }
+                for k, (s, name) in enumerate(est.keys)
+            ]
         else:
             out["given"] = self.noise.to_dict()
+        return out
+
+    def session_dicts(self) -> list[dict[str, Any]]:
+        """Each session: its label, instrument, observations, calibrated instrument quantities
+        (value and standard error by name), what its setup fixes, the registration of an unknown
+        frame and its noise (standard deviations)."""
+        out = []
+        stderr = self.standard_errors
+        many = len(self.instruments) > 1
+        for k, inst in enumerate(self.instruments):
+            params = inst.parameters()
+            prefix = f"session{k + 1}." if many else ""
+            setup = {
+                n: {"value": float(v), "stderr": stderr.get(prefix + n)}
+                for n, v in zip(params.names, params.values, strict=True)
+            }
+            reg = self.registrations[k] if k < len(self.registrations) else None
+            noise = self.noises[k] if k < len(self.noises) else self.noise
+            out.append(
+                {
+                    "label": self.sessions[k] if k < len(self.sessions) else f"session {k + 1}",
+                    "instrument": inst.name,
+                    "description": inst.describe(),
+                    "observations": self.session_sizes[k] if k < len(self.session_sizes) else self.n_poses,
+                    "setup": setup,
+                    "varied": [n for n in params.names if prefix + n in stderr],
+                    "registration": None if reg is None else reg.to_dict(),
+                    "noise": None
+                    if noise is None
+                    else dict(zip(("leg", "position", "orientation"), noise.sigmas, strict=True)),
+                }
+            )
         return out
 
     def to_dict(self) -> dict[str, Any]:
@@ -270,7 +337,17 @@ class IdentificationResult:
             "outliers": list(self.outliers),
             "flagged": list(self.flagged),
             "ids": list(self.ids),
+            "pose_rms_before": _pose_rms(self.leg_residuals_before),
+            "pose_rms_after": _pose_rms(self.leg_residuals_after),
+            "sessions": self.session_dicts(),
+            "gauges": list(self.gauges),
+            "convention": self.convention,
         }
+
+
+def _pose_rms(residuals: NDArray[np.float64] | None) -> list[float] | None:
+    """RMS of each observation's six leg residuals (mm), or None."""
+    return None if residuals is None else np.sqrt(np.mean(residuals**2, axis=1)).tolist()
 
 
 def rms(x: NDArray[np.float64]) -> float:
@@ -292,6 +369,7 @@ def finish_result(
     poses: NDArray[np.float64] | None = None,
     blocks: list[NDArray[np.float64]] | None = None,
     noises: tuple[NoiseModel, ...] = (),
+    leg_residuals: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> IdentificationResult:
     """Build the result of a converged fit (shared by all estimators).
 
@@ -324,8 +402,12 @@ def finish_result(
     stderr = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(stderr, stderr)
-    if leg_rms is None:
-        leg_rms = (rms(problem.leg_residuals(problem.full0)), rms(problem.leg_residuals(full)))
+    if leg_residuals is None and problem.determines_pose:
+        leg_residuals = (problem.leg_residuals(problem.full0), problem.leg_residuals(full))
+        poses = problem.measured_poses() if poses is None else poses
+    if leg_rms is None and leg_residuals is not None:
+        leg_rms = (rms(leg_residuals[0]), rms(leg_residuals[1]))
+    leg_rms = (float("nan"), float("nan")) if leg_rms is None else leg_rms
     mask = problem.mask
     widths = {b.shape[1] for b in blocks} if blocks else set()
     shaped = residuals.reshape(len(problem), -1) if len(widths) <= 1 else residuals
@@ -363,4 +445,7 @@ def finish_result(
         convention=CONVENTION if g else "",
         poses=poses,
         noises=tuple(noises),
+        leg_residuals_before=None if leg_residuals is None else leg_residuals[0],
+        leg_residuals_after=None if leg_residuals is None else leg_residuals[1],
+        gauge_directions=None if g == 0 else gauge.generators * problem.scale[:, None],
     )

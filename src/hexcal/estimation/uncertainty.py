@@ -33,12 +33,14 @@ from numpy.typing import ArrayLike, NDArray
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import inverse_kinematics, leg_readings, pose_jacobian
 from hexcal.core.linalg import floored_whitener, gram_pinv, gram_pinv_diagonal, scaled_svd, whitening
+from hexcal.core.machine import check_variant
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import select_parameters
 from hexcal.estimation.gauge import gauge_freedoms, gauge_projector
 from hexcal.estimation.problem import Problem
 from hexcal.instruments.base import MeasurementModel, Session
 from hexcal.instruments.data import Measurements
+from hexcal.instruments.registry import full_pose
 
 #: Smallest leg sensor σ used in the likelihood (mm): a zero σ makes the legs exact
 #: constraints, which this floor approximates without dividing by zero.
@@ -192,7 +194,53 @@ def bound_stderr(
     return np.sqrt(np.clip(np.diag(cramer_rao(problem, noises, full, poses)), 0.0, None))
 
 
-# -- planning: the bound of the full pose at poses a geometry reaches -----------------------
+# -- planning: the full pose at poses a geometry reaches ------------------------------------
+def measurements_problem(geometry: Geometry, measurements: Any, mask: ArrayLike | None = None) -> Problem:
+    """A full-pose :class:`Problem` (the form most of hexcal's planning code uses)."""
+    return Problem(geometry, measurements, full_pose(), mask)
+
+
+def identification_residuals(
+    geometry: Geometry, measurements: Any, method: str = "length"
+) -> NDArray[np.float64]:
+    """Leg residuals of every measured pose for ``geometry``, shape ``(m, 6)``.
+
+    Units: mm for ``"length"``, mm² for ``"paper"``.
+    """
+    check_variant(method)
+    problem = measurements_problem(geometry, measurements)
+    return problem.leg_residuals(problem.full0, method)
+
+
+def identification_jacobian(
+    geometry: Geometry,
+    measurements: Any,
+    method: str = "length",
+    mask: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """Analytic Jacobian of the leg residuals at the measured poses, parameter units.
+
+    Parameters
+    ----------
+    geometry : Geometry
+        Parameters at which to evaluate.
+    measurements : Measurements
+    method : {"length", "paper"}
+    mask : array_like of bool, optional
+        Machine parameters to keep (columns); default the joints and ``l0``.
+
+    Returns
+    -------
+    ndarray, shape (6 m, n_selected)
+        Row ``6 j + i`` is pose ``j``, leg ``i``; columns in parameter order.
+    """
+    check_variant(method)
+    mask = select_parameters() if mask is None else mask
+    problem = measurements_problem(geometry, measurements, mask)
+    return problem.leg_jacobian(problem.full0, method, scaled=False)
+
+
+
 def whitened_jacobian(
     geometry: Geometry,
     poses: ArrayLike,

@@ -65,6 +65,10 @@ class MeasurementModel(ABC):
         """One line: what the instrument sees."""
         return self.name
 
+    def setup_dict(self) -> dict[str, Any] | None:
+        """The instrument's setup as the mapping of a setup file (None: it has none to write)."""
+        return None
+
     # -- data ----------------------------------------------------------------------------
     @abstractmethod
     def observed(self, data: Any) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:

@@ -54,6 +54,9 @@ class FramedModel(MeasurementModel):
         """Constructor options beyond the setup (kept by :meth:`with_values`)."""
         return {}
 
+    def setup_dict(self) -> dict[str, Any] | None:
+        return self.setup.to_dict()
+
     @property
     def unregistered(self) -> bool:
         return self.setup.auto

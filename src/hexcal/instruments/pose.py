@@ -245,7 +245,12 @@ class ToolModel(FramedModel):
         noise: NoiseModel | None,
         rng: np.random.Generator,
         ids: tuple[str, ...] = (),
+        missing_rate: float = 0.0,
     ) -> Measurements:
+        if missing_rate:
+            raise UsageError(
+                f"a missing rate applies to targets; the {self.describe()} records whole poses"
+            )
         values = self.predict(setup, poses, euler)
         if noise is not None:
             values = values + noise.pose_errors(rng, (len(values),))

@@ -103,10 +103,12 @@ def identification_report_dict(
 
 
 def validation_dict(calibrated: Any, nominal: Any | None = None) -> dict[str, Any]:
-    """Summaries of validations (:class:`hexcal.estimation.ValidationResult`), side by side."""
+    """Summaries of validations (:class:`hexcal.calibration.ValidationResult`), side by side,
+    and what the instrument is."""
     return {
         "calibrated": calibrated.summary(),
         "nominal": nominal.summary() if nominal is not None else None,
+        "instrument": calibrated.instrument,
     }
 
 

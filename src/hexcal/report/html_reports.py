@@ -16,7 +16,6 @@ from typing import Any
 import numpy as np
 
 from hexcal.core.linalg import RANK_RTOL
-from hexcal.estimation.problem import identification_residuals
 from hexcal.estimation.registry import ESTIMATORS
 from hexcal.report import figures_report as fig
 from hexcal.report.figures import (
@@ -30,40 +29,35 @@ from hexcal.report.registry import render
 from hexcal.report.tables import STUDY_COLUMNS
 
 
-def _pose_rms(geometry: Any, data: Any) -> np.ndarray:
-    residuals = identification_residuals(geometry, data, "length")
-    return np.sqrt(np.mean(residuals**2, axis=1))
-
-
 def identification_report(
-    result: Any, data: Any, inputs: Mapping[str, Any] | None = None, title: str = ""
+    result: Any, inputs: Mapping[str, Any] | None = None, title: str = ""
 ) -> dict[str, Any]:
-    """Everything the identify page shows, from an identification and all its measurements.
-
-    ``data`` are all the measurements (outliers included: they are marked); ``inputs``
-    names the files, options and versions that produced the result.
-    """
+    """Everything the identify page shows, from an identification (any instrument, any number
+    of sessions); ``inputs`` names the files, options and versions that produced the result."""
     summary = result.to_dict()
     estimator = ESTIMATORS.get(summary["method"])
     if estimator is not None:
         summary["method_label"] = f"{estimator.name}: {estimator.label}"
     figures = {"parameter_changes": fig.svg(fig.parameter_changes(summary))}
-    if getattr(data, "poses", None) is not None:
-        before, after = _pose_rms(result.start, data), _pose_rms(result.geometry, data)
+    before, after = summary.get("pose_rms_before"), summary.get("pose_rms_after")
+    if before is not None and after is not None:
         marked = {"outlier (left out)": summary["outliers"], "flagged": summary["flagged"]}
-        figures["pose_residuals"] = fig.svg(fig.pose_residuals(list(data.ids), before, after, marked))
-        summary["pose_rms_before"] = dict(zip(data.ids, before.tolist(), strict=True))
-        summary["pose_rms_after"] = dict(zip(data.ids, after.tolist(), strict=True))
+        figures["pose_residuals"] = fig.svg(
+            fig.pose_residuals(summary["ids"], np.asarray(before), np.asarray(after), marked)
+        )
     figures["correlation"] = fig.svg(fig.correlation(summary["names"], summary["correlation"]))
     figures["singular_values"] = fig.svg(fig.singular_values(summary["singular_values"], RANK_RTOL))
-    if getattr(data, "poses", None) is not None:
-        figures["workspace"] = fig.svg(fig.workspace_poses(data.poses, result.start.workspace))
+    if result.poses is not None:
+        figures["workspace"] = fig.svg(fig.workspace_poses(result.poses, result.start.workspace))
     name = result.start.name or "geometry"
+    sessions = summary["sessions"]
+    what = sessions[0]["description"] if len(sessions) == 1 else f"{len(sessions)} sessions"
     return {
         "kind": "identification",
         "title": title or f"Calibration of {name}",
         "subtitle": (
-            f"{summary['poses']} poses, {len(summary['names'])} parameters, estimator {summary['method']}"
+            f"{summary['poses']} poses ({what}), {len(summary['names'])} parameters, estimator "
+            f"{summary['method']}"
         ),
         "result": summary,
         "figures": figures,

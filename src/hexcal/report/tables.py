@@ -37,21 +37,30 @@ def study_table(rows: Sequence[dict[str, Any]]) -> Table:
 
 
 def validation_table(calibrated: Any, nominal: Any | None, ids: Sequence[str]) -> Table:
-    """Per-pose validation table: leg residual RMS, position and orientation error of each
-    pose, for the calibrated geometry and optionally the nominal one
-    (:class:`hexcal.estimation.ValidationResult`)."""
-    columns = ["leg_rms", "position_error", "orientation_error"]
-    results = [calibrated] + ([nominal] if nominal is not None else [])
-    table = []
-    for res in results:
-        table += [
-            np.sqrt(np.mean(res.leg_residuals**2, axis=1)),
-            res.position_error,
-            res.orientation_error,
-        ]
-    if nominal is not None:
-        columns += ["nominal_leg_rms", "nominal_position_error", "nominal_orientation_error"]
-    comment = "per-pose validation: mm and rad; leg_rms is the RMS of the six leg residuals"
+    """Per-observation validation table: leg residual RMS, position and orientation error of
+    the platform pose, and the instrument's own errors, for the calibrated geometry and
+    optionally the nominal one (:class:`hexcal.calibration.ValidationResult`); empty cells
+    where the instrument gives no value."""
+    results = [("", calibrated)] + ([("nominal_", nominal)] if nominal is not None else [])
+    columns, table = [], []
+    for prefix, res in results:
+        with np.errstate(invalid="ignore"):
+            leg = np.sqrt(np.mean(res.leg_residuals**2, axis=1))
+        columns += [f"{prefix}leg_rms", f"{prefix}position_error", f"{prefix}orientation_error"]
+        table += [leg, res.position_error, res.orientation_error]
+        for name, values in res.instrument_errors.items():
+            values = np.asarray(values, dtype=float).reshape(len(ids), -1)
+            if values.shape[1] == 1:
+                columns.append(f"{prefix}{name}_error")
+                table.append(values[:, 0])
+            else:
+                labels = res.value_labels if len(res.value_labels) == values.shape[1] else None
+                columns += [
+                    f"{prefix}{labels[k] if labels else f'{name}{k + 1}'}_error"
+                    for k in range(values.shape[1])
+                ]
+                table += list(values.T)
+    comment = "per-pose validation: mm and rad; leg_rms is the RMS of the six leg residuals; empty: no value"
     return columns, np.column_stack(table), list(ids), comment
 
 

@@ -144,37 +144,101 @@ def verdict_lines(data: dict[str, Any]) -> list[str]:
 
 def noise_lines(data: dict[str, Any]) -> list[str]:
     """The noise model used: estimated (with its uncertainty and the instrument noise it
-    implies) or given (and which groups disagree with the data, by how much)."""
+    implies; every group of every session) or given (and which groups disagree with the data,
+    by how much)."""
     noise = data.get("noise")
     if not noise:
         return []
     units = {"leg": "mm", "position": "mm", "orientation": "rad"}
     lines = ["[[Noise]]"]
     stderr = noise.get("stderr") or {}
+    groups = noise.get("groups")
+    if noise.get("source") == "estimated":
+        lines.append("    estimated from the data (--noise auto: the default without --noise)")
+        if groups:
+            parts = [
+                f"{g['label']} σ {g['sigma']:.4g}"
+                + (f" ± {g['stderr']:.2g}" if g["estimated"] and math.isfinite(g["stderr"]) else "")
+                + f" {g['unit']}"
+                + ("" if g["estimated"] else " (not estimated: too few data)")
+                for g in groups
+            ]
+            lines.append("    " + ", ".join(parts))
+        implied = data.get("noise_implied")
+        if implied and len(data.get("sessions") or ()) <= 1:
+            half = ", ".join(f"{k} {v:.3g}" for k, v in implied["uniform_half_width"].items())
+            lines.append(f"    instrument noise implied: {implied['option']} (uniform half-widths {half})")
+        return lines
     parts = []
     for group, unit in units.items():
         err = f" ± {stderr[group]:.2g}" if group in stderr else ""
         parts.append(f"{group} σ {noise[group]:.4g}{err} {unit}")
-    if noise.get("source") == "estimated":
-        lines.append("    estimated from the data (--noise auto: the default without --noise)")
-        lines.append("    " + ", ".join(parts))
-        implied = data.get("noise_implied")
-        if implied:
-            half = ", ".join(f"{k} {v:.3g}" for k, v in implied["uniform_half_width"].items())
-            lines.append(f"    instrument noise implied: {implied['option']} (uniform half-widths {half})")
-        return lines
     lines.append("    given: " + ", ".join(parts) + " (standard deviations)")
     check = data.get("noise_check")
     if check:
         bad = [g for g, c in check.items() if c.get("disagrees")]
         for group in bad:
             c = check[group]
+            unit = units.get(group.split()[-1], "")
             lines.append(
-                f"    disagrees: {group} σ from the data {c['given'] * c['ratio']:.3g} {units[group]}, "
+                f"    disagrees: {group} σ from the data {c['given'] * c['ratio']:.3g} {unit}, "
                 f"given {c['given']:.3g} (× {c['ratio']:.3g}, p {c['p_value']:.1e})"
             )
         if not bad:
             lines.append("    the data agree with the given noise (every group)")
+    return lines
+
+
+def _setup_value(name: str, value: float | None) -> tuple[str, str]:
+    """A setup parameter for the report: angles in degrees, lengths in mm."""
+    angle = name.startswith(("frame.", "tool.")) and name.split(".")[-1] in ("a", "b", "c")
+    if value is None or not math.isfinite(value):
+        return "n/a", " deg" if angle else " mm"
+    return (f"{math.degrees(value):.6f}", " deg") if angle else (f"{value:.6f}", " mm")
+
+
+def session_lines(data: dict[str, Any]) -> list[str]:
+    """The sessions: each instrument, the registration of an unknown frame, the gauge freedoms
+    and the calibrated instrument quantities (nothing for one full-pose session)."""
+    sessions = data.get("sessions") or []
+    if len(sessions) == 1 and not sessions[0]["varied"] and sessions[0]["registration"] is None:
+        return []
+    lines = ["[[Sessions]]"]
+    for s in sessions:
+        lines.append(f"    {s['label']}: {s['description']}, {s['observations']} observation(s)")
+        reg = s["registration"]
+        if reg is not None:
+            angle = f", orientation RMS {reg['angle_rms_rad']:.3g} rad" if "angle_rms_rad" in reg else ""
+            unit = "poses" if "tool" in reg else "points"
+            lines.append(
+                f"      instrument frame auto: registered from {reg['points']} {unit}, residual RMS "
+                f"{reg['rms_mm']:.3f} mm, max {reg['max_mm']:.3f} mm{angle} (nominal machine and setup)"
+            )
+        held = [n for n in s["setup"] if n not in s["varied"]]
+        if held and s["varied"]:
+            lines.append(f"      held exactly: {', '.join(held)}")
+    lines.append("[[Gauge freedoms]]")
+    gauges = data.get("gauges") or []
+    if gauges:
+        lines.append(f"    {len(gauges)} combinations no data can determine: {', '.join(gauges)}")
+        lines.append(f"    removed by the {data.get('convention')}")
+        lines.append("    (rank, standard errors and bounds above are those of the gauge-fixed parameters)")
+    else:
+        lines.append("    none")
+    weak = [r for r in data.get("reasons") or [] if r.get("code") == "undetermined"]
+    lines.append(
+        "    beyond the gauges: "
+        + ("every varied parameter is identified" if not weak else "not determined: see the verdict")
+    )
+    for s in sessions:
+        if not s["varied"]:
+            continue
+        title = "[[Calibrated setup]]" if len(sessions) == 1 else f"[[Calibrated setup: {s['label']}]]"
+        lines += [title, f"    {'name':<10}{'value':>16}{'stderr':>12}"]
+        for name, item in s["setup"].items():
+            value, unit = _setup_value(name, item["value"])
+            err, _ = _setup_value(name, item["stderr"])
+            lines.append(f"    {name:<10}{value:>16}{err:>12}{unit}")
     return lines
 
 
@@ -187,6 +251,7 @@ def identification_text(data: dict[str, Any]) -> str:
     names = list(data["parameters"])
     n = len(names)
     lines = verdict_lines(data) + _fit_statistics(data, unit, data["outliers"]) + noise_lines(data)
+    lines += session_lines(data)
     bound = data["bound"]
     header = f"    {'name':<8}{'nominal':>14}{'identified':>14}{'change':>12}{'stderr':>12}"
     lines += ["[[Parameters]]", header + (f"{'CR bound':>12}" if bound is not None else "")]
@@ -226,6 +291,8 @@ def identification_text(data: dict[str, Any]) -> str:
         )
     lines.append("[[Pose check]]")
     flagged = data["flagged"]
+    if data["outliers"]:
+        lines.append("    left out as outliers (--robust): " + ", ".join(data["outliers"]))
     if flagged:
         lines.append(
             f"    warning: implausible residuals at pose(s) {', '.join(flagged)}: a gross measurement "
@@ -234,13 +301,14 @@ def identification_text(data: dict[str, Any]) -> str:
     screened = [r for r in data.get("reasons") or [] if r.get("code") in ("gross-outlier", "outlier")]
     for reason in screened:
         lines.append(f"    {reason['severity']}: {reason['message']}")
-    if not flagged and not screened:
+    if not flagged and not screened and not data["outliers"]:
         lines.append("    no pose with implausible residuals")
     return "\n".join(lines)
 
 
 def validation_text(data: dict[str, Any]) -> str:
-    """Side-by-side table of validation summaries (:func:`hexcal.report.validation_dict`).
+    """Side-by-side table of validation summaries (:func:`hexcal.report.validation_dict`);
+    a row the instrument cannot give (a platform pose from one target) is left out.
 
     >>> s = dict(poses=3, leg_rms=0.01, leg_max=0.02, position_rms=0.1, position_max=0.2,
     ...          orientation_rms=1e-5, orientation_max=2e-5)
@@ -249,7 +317,11 @@ def validation_text(data: dict[str, Any]) -> str:
     """
     calibrated, nominal = data["calibrated"], data.get("nominal")
     cols = [("calibrated", calibrated)] + ([("nominal", nominal)] if nominal else [])
-    lines = [f"Validation on {calibrated['poses']} held-out pose(s)"]
+    what = data.get("instrument") or "pose"
+    lines = [
+        f"Validation on {calibrated['poses']} held-out observation(s)"
+        + (f" ({what})" if what != "pose" else "")
+    ]
     lines.append(f"    {'':<26}" + "".join(f"{name:>14}" for name, _ in cols))
     rows = [
         ("leg residual RMS (mm)", "leg_rms"),
@@ -259,8 +331,18 @@ def validation_text(data: dict[str, Any]) -> str:
         ("orientation RMS (rad)", "orientation_rms"),
         ("orientation max (rad)", "orientation_max"),
     ]
+    labels = {"target": "target distance", "position": "tool position", "orientation": "tool angle"}
+    for key in calibrated:
+        if key.startswith("instrument_") and key.endswith("_rms"):
+            name = key.removeprefix("instrument_").removesuffix("_rms")
+            unit = "rad" if name == "orientation" else "mm"
+            rows.append((f"{labels.get(name, name)} RMS ({unit})", key))
+            rows.append((f"{labels.get(name, name)} max ({unit})", key.replace("_rms", "_max")))
     for label, key in rows:
-        lines.append(f"    {label:<26}" + "".join(f"{d[key]:>14.4g}" for _, d in cols))
+        values = [d.get(key, float("nan")) for _, d in cols]
+        if all(not math.isfinite(v) for v in values):
+            continue
+        lines.append(f"    {label:<26}" + "".join(f"{v:>14.4g}" for v in values))
     return "\n".join(lines)
 
 

@@ -51,6 +51,7 @@ __getattr__, __dir__, __all__ = attach(
         "run_study": "study",
         "simulate_campaigns": "protocol",
         "simulate_measurements": "protocol",
+        "simulate_session": "protocol",
         "study_trials": "study",
         "true_machines": "protocol",
         "validate": "protocol",

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,6 +39,7 @@ from hexcal.core import (
 )
 from hexcal.errors import SimulationError
 from hexcal.instruments import Measurements
+from hexcal.instruments.base import MeasurementModel, Session
 
 
 @dataclass(frozen=True)
@@ -278,6 +280,61 @@ def simulate_measurements(
         nominal, machine, poses[None], sensor[None], noise.pose_errors(rng, (m,))[None]
     )
     return Measurements(campaign.measured[0], campaign.readings[0], ids or ())
+
+
+def simulate_session(
+    nominal: Geometry,
+    true: Geometry,
+    instrument: MeasurementModel | None,
+    poses: NDArray[np.float64],
+    noise: NoiseModel | None = None,
+    rng: np.random.Generator | int | None = None,
+    ids: tuple[str, ...] | None = None,
+    **options: Any,
+) -> Session:
+    """A simulated session of any instrument (the paper's protocol, steps 2 to 4).
+
+    Leg readings come from the nominal inverse kinematics of the commanded ``poses``; the
+    true machine reaches the forward kinematics of its leg lengths plus the leg sensor error;
+    the instrument (its true setup: the frame known) records what it sees there plus its
+    noise (:meth:`MeasurementModel.simulate`; ``options`` such as a target ``missing_rate``).
+    Leg errors are drawn first, then the instrument's. ``noise=None`` means the seed paper's.
+
+    Examples
+    --------
+    >>> from hexcal.core import NoiseModel, preset
+    >>> from hexcal.instruments import FullPoseModel
+    >>> nominal = preset("paper-hmt")
+    >>> quiet = NoiseModel(0, 0, 0)
+    >>> session = simulate_session(nominal, nominal, FullPoseModel(), np.zeros((2, 6)), quiet, 0)
+    >>> len(session), session.instrument.name
+    (2, 'pose')
+    """
+    from hexcal.instruments.registry import full_pose
+
+    instrument = full_pose() if instrument is None else instrument
+    if instrument.unregistered:
+        raise SimulationError("simulation needs the true instrument frame (not auto)")
+    noise = NoiseModel() if noise is None else noise
+    rng = np.random.default_rng(rng)
+    poses = np.asarray(poses, dtype=float).reshape(-1, 6)
+    machine = MachineBatch.from_vectors(true.to_vector()[None], true.leg_gains)
+    sensor = noise.leg_errors(rng, (len(poses),))
+    readings = leg_readings(nominal, inverse_kinematics(nominal, poses))
+    reached = machine.reach(
+        readings[None] + sensor[None] / machine.leg_gains[:, None], poses[None], nominal.euler
+    )
+    data = instrument.simulate(
+        instrument.parameters().values,
+        reached[0],
+        readings,
+        nominal.euler,
+        noise,
+        rng,
+        tuple(ids or ()),
+        **options,
+    )
+    return Session(data, instrument)
 
 
 def validate(

@@ -1,0 +1,148 @@
+"""Sessions from files: a data file and the setup that says which instrument recorded it.
+
+A session is read from a data file and, optionally, a setup file (without one the file is
+a measurement file of the full pose in the base frame). The setup's kind names the
+instrument (:func:`hexcal.instruments.instrument_for`), and the instrument's name the reader
+and writer of its data files here (:data:`READERS`, :data:`WRITERS`): a new instrument is its
+module, its registration, and one reader and writer line here.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from hexcal.errors import InputError
+from hexcal.instruments.base import MeasurementModel, Session
+from hexcal.instruments.registry import instrument_for
+from hexcal.instruments.setup import Setup
+from hexcal.io.measurement_files import read_measurements, write_measurements
+from hexcal.io.setup_file import load_setup
+from hexcal.io.target_files import read_target_measurements, read_tool_measurements, write_target_measurements
+
+#: Options a reader takes: the instrument, the Euler sequence, the delimiter and decimal mark.
+Reader = Callable[[str | os.PathLike[str], MeasurementModel, str, str | None, str | None], Any]
+Writer = Callable[..., None]
+
+
+def _full_pose(path: Any, instrument: Any, euler: str, delimiter: Any, decimal: Any) -> Any:
+    if delimiter is not None or decimal is not None:
+        # a measurement file of the full pose has the export reader's detection too
+        return read_tool_measurements(path, euler, delimiter, decimal)
+    return read_measurements(path, euler)
+
+
+#: The data reader of each instrument, by its registry name.
+READERS: dict[str, Reader] = {
+    "pose": _full_pose,
+    "tool": lambda path, inst, euler, delimiter, decimal: read_tool_measurements(
+        path, euler, delimiter, decimal
+    ),
+    "targets": lambda path, inst, euler, delimiter, decimal: read_target_measurements(
+        path, inst.setup, delimiter, decimal
+    ),
+}
+
+
+def _write_poses(
+    path: Any, data: Any, euler: str, orientation: str = "rad", comment: str | None = None
+) -> None:
+    write_measurements(path, data, euler, orientation, comment=comment)
+
+
+def _write_targets(
+    path: Any, data: Any, euler: str, orientation: str = "rad", comment: str | None = None
+) -> None:
+    if orientation != "rad":
+        raise InputError(f"--orientation {orientation}: target positions have no orientation")
+    write_target_measurements(path, data, comment=comment)
+
+
+#: The data writer of each instrument, by its registry name.
+WRITERS: dict[str, Writer] = {"pose": _write_poses, "tool": _write_poses, "targets": _write_targets}
+
+
+def read_session(
+    data: str | os.PathLike[str],
+    setup: Setup | str | os.PathLike[str] | None,
+    euler: str,
+    delimiter: str | None = None,
+    decimal: str | None = None,
+    label: str | None = None,
+) -> Session:
+    """The session of a data file and its setup (a :class:`Setup` or a setup file; None for
+    the full pose in the base frame), angles in the Euler sequence ``euler``."""
+    if setup is not None and not isinstance(setup, Setup):
+        setup = load_setup(setup)
+    instrument = instrument_for(None if setup is None else setup.in_euler(euler))
+    try:
+        reader = READERS[instrument.name]
+    except KeyError:
+        raise InputError(f"no reader of {instrument.name} data files") from None
+    values = reader(data, instrument, euler, delimiter, decimal)
+    return Session(values, instrument, label or Path(data).name)
+
+
+def read_sessions(
+    data: Sequence[str | os.PathLike[str]],
+    setups: Sequence[str | os.PathLike[str] | Setup | None],
+    euler: str,
+    delimiter: str | None = None,
+    decimal: str | None = None,
+) -> list[Session]:
+    """Sessions of data files paired in order with setups: one setup for all files, one per
+    file, or none (the full pose); labels are the file names, made unique."""
+    data = list(data)
+    setups = list(setups)
+    if not setups:
+        setups = [None] * len(data)
+    elif len(setups) == 1:
+        setups = setups * len(data)
+    elif len(setups) != len(data):
+        raise InputError(
+            f"{len(data)} data files and {len(setups)} setups: give one setup for all, or one per data file"
+        )
+    loaded: dict[Any, Any] = {}
+    sessions = []
+    for k, (path, setup) in enumerate(zip(data, setups, strict=True)):
+        key = str(setup)
+        if setup is not None and not isinstance(setup, Setup):
+            if key not in loaded:
+                loaded[key] = load_setup(setup)
+            setup = loaded[key]
+        label = Path(path).name
+        if any(s.label == label for s in sessions):
+            label = f"{label} ({k + 1})"
+        sessions.append(read_session(path, setup, euler, delimiter, decimal, label))
+    return sessions
+
+
+def save_setup_dict(setup: dict[str, Any] | None, path: str | os.PathLike[str]) -> None:
+    """Write an instrument's setup mapping (:meth:`MeasurementModel.setup_dict`) as YAML,
+    staged in the command's output set (or atomically)."""
+    import yaml
+
+    from hexcal.io.files import atomic_write, plain
+
+    if setup is None:
+        raise InputError(f"{path}: this instrument has no setup to write")
+    text = yaml.safe_dump(plain(setup), sort_keys=False, default_flow_style=None)
+    with atomic_write(path) as fh:
+        fh.write(text)
+
+
+def write_session_data(
+    path: str | os.PathLike[str],
+    session: Session,
+    euler: str,
+    orientation: str = "rad",
+    comment: str | None = None,
+) -> None:
+    """Write a session's data in its instrument's file format, atomically."""
+    try:
+        writer = WRITERS[session.instrument.name]
+    except KeyError:
+        raise InputError(f"no writer of {session.instrument.name} data files") from None
+    writer(path, session.data, euler, orientation, comment)
