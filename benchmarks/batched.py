@@ -26,12 +26,12 @@ from collections.abc import Callable
 
 import numpy as np
 
+from hexcal.calibration.identify import estimate
 from hexcal.core.kinematics import inverse_kinematics, leg_readings
 from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import workspace_corners
 from hexcal.estimation.batched import estimate_batch
-from hexcal.calibration.identify import estimate
 from hexcal.instruments.pose import Measurements
 
 SEED = 20261130

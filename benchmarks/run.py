@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 import scipy
 
+from hexcal.calibration.identify import estimate
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import (
     FK_TOLERANCE,
@@ -43,7 +44,6 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses, workspace_corners
 from hexcal.errors import IdentificationError
-from hexcal.calibration.identify import estimate
 from hexcal.instruments.pose import Measurements
 
 BENCHMARKS = ("ik", "fk", "identify", "ml", "identify-cli", "cli")

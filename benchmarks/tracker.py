@@ -29,21 +29,21 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-from hexcal.core.noise import NoiseModel
-from hexcal.core.presets import preset
-from hexcal.core.workspace import random_poses
-from hexcal.calibration import estimate
-from hexcal.estimation.gauge import apply_convention, gauge_freedoms
 from hexcal.estimation.instrument import identify_instrument, instrument_parameters
-from hexcal.design.instrument_table import format_table, instrument_identifiability
-from hexcal.estimation.uncertainty import model_cramer_rao
-from hexcal.estimation.problem import Problem
 from hexcal.instruments.instrument_data import (
     predict_instrument,
     simulate_target_measurements,
     true_poses,
 )
+
+from hexcal.calibration import estimate
+from hexcal.core.noise import NoiseModel
+from hexcal.core.presets import preset
+from hexcal.core.workspace import random_poses
+from hexcal.design.instrument_table import format_table, instrument_identifiability
+from hexcal.estimation.gauge import apply_convention, gauge_freedoms
+from hexcal.estimation.problem import Problem
+from hexcal.estimation.uncertainty import model_cramer_rao
 from hexcal.instruments.pose import Measurements
 from hexcal.instruments.targets import TargetModel
 

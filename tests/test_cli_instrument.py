@@ -251,24 +251,23 @@ def test_planning_with_a_setup(campaign: Path, capsys: pytest.CaptureFixture[str
     (d / "one.yaml").write_text("units: mm\ninstrument_frame: auto\ntargets: {t1: [0, 0, 60]}\n")
     bounds = {}
     for name in ("one.yaml", "start.yaml"):
-        code, out, err = run(
+        code, _, err = run(
             capsys, "observability", "--geometry", "paper-hmt", "--setup", str(d / name),
             "--poses", str(d / "poses.csv"), "--json", str(d / "obs.json"),
         )  # fmt: skip
         assert code == 0, err
         data = json.loads((d / "obs.json").read_text())
-        assert data["gauges"] == 12 and data["rank"] == data["parameters"] - 12
+        assert data["gauges"] == 12 and data["rank"] == data["n_parameters"] - 12
         bounds[name] = data["joint_bound_mm"]
     # a single target sees less than three
     assert bounds["one.yaml"] > 2 * bounds["start.yaml"]
-    code, out, err = run(
+    code, _, err = run(
         capsys, "select", "--geometry", "paper-hmt", "--setup", str(d / "start.yaml"), "--n", "20",
-        "--candidates", "random:200", "--out", str(d / "sel.csv"),
+        "--candidates", "random:200", "--out", str(d / "sel.csv"), "--json", str(d / "sel.json"),
     )  # fmt: skip
     assert code == 0, err
-    selected = float(out.split("joint coordinates  median ")[1].split()[0])
-    random = float(out.split("random candidates give joint σ median ")[1].split()[0])
-    assert selected < random
+    predicted = json.loads((d / "sel.json").read_text())["predicted_mean_abs_error_mm"]
+    assert predicted["selected"]["bound"] < predicted["interior"]["bound"]
     rows = [ln for ln in (d / "sel.csv").read_text().splitlines() if ln and not ln.startswith("#")]
     assert len(rows) == 21
 
@@ -277,10 +276,10 @@ def test_simulate_with_a_setup(campaign: Path, capsys: pytest.CaptureFixture[str
     code, out, err = run(
         capsys, "simulate", "--geometry", "paper-hmt", "--true", "paper-hmt-true",
         "--setup", str(campaign / "true.yaml"), "--poses", "20", "--trials", "3",
-        "--strategies", "interior", "--missing-rate", "0.05", *NOISE, "--quiet",
+        "--strategies", "interior", "--missing-rate", "0.05", *NOISE, "--quiet", "--methods", "ml",
     )  # fmt: skip
     assert code == 0, err
-    cells = out.splitlines()[4].split()
-    assert cells[:3] == ["interior", "20", "3"]
-    ratio = float(cells[5])
+    cells = next(line for line in out.splitlines() if line.split()[:1] == ["interior"]).split()
+    assert cells[:4] == ["interior", "20", "x1", "ml"]
+    ratio = float(cells[7])
     assert 0.3 < ratio < 3  # three trials: the error is of the order of its bound

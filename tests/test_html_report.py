@@ -40,7 +40,7 @@ def identify_page(tmp_path_factory: pytest.TempPathFactory, data: Measurements) 
     result = estimate(NOMINAL, data, "ml", robust=True)
     inputs = {"files": [{"role": "data", "path": "measured.csv", "sha256": "0" * 64}], "hexcal": "test"}
     path = tmp_path_factory.mktemp("html") / "identify.html"
-    path.write_text(render_html(identification_report(result, data, inputs)), encoding="utf-8")
+    path.write_text(render_html(identification_report(result, inputs)), encoding="utf-8")
     return path
 
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hexcal.instruments.tool import ToolModel
 
 from hexcal.errors import InputError, UsageError
+from hexcal.instruments.pose import ToolModel
 from hexcal.instruments.registry import model_by_name
 from hexcal.instruments.setup import Setup
 from hexcal.instruments.targets import TargetMeasurements, TargetModel

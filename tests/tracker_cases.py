@@ -5,10 +5,16 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from hexcal.calibration import estimate
 from hexcal.core.geometry import Geometry
+from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
+from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses
+from hexcal.estimation.result import IdentificationResult
+from hexcal.instruments import Session, instrument_for
 from hexcal.instruments.setup import Setup
+from hexcal.simulation import simulate_session
 
 TARGETS3 = {"t1": [0.0, 0.0, 60.0], "t2": [150.0, 20.0, 55.0], "t3": [-40.0, 160.0, 70.0]}
 
@@ -42,3 +48,39 @@ def tracker_setups(n_targets: int, seed: int = 3) -> tuple[Setup, Setup]:
 
 def poses(geometry: Geometry, n: int, seed: int) -> np.ndarray:
     return random_poses(geometry, n, seed)
+
+
+def simulate(
+    nominal: Geometry,
+    true: Geometry,
+    setup: Setup,
+    poses: np.ndarray,
+    noise: NoiseModel | None = None,
+    missing_rate: float = 0.0,
+    seed: int = 0,
+):
+    """The data the instrument of the true ``setup`` records at commanded ``poses`` on the
+    ``true`` machine (noise-free when ``noise`` is None; ``missing_rate`` for targets)."""
+    quiet = NoiseModel(0.0, 0.0, 0.0) if noise is None else noise
+    session = simulate_session(
+        nominal, true, instrument_for(setup), poses, quiet, seed, missing_rate=missing_rate
+    )
+    return session.data
+
+
+def identify(
+    nominal: Geometry, data, setup: Setup, noise: NoiseModel | None = None, **kw
+) -> IdentificationResult:
+    """Maximum likelihood on one session of ``data`` seen by the instrument of ``setup``
+    (bound attached, no verdict)."""
+    return estimate(nominal, Session(data, instrument_for(setup)), "ml", noise=noise, verdict=False, **kw)
+
+
+def reached_poses(nominal: Geometry, true: Geometry, commanded: np.ndarray) -> np.ndarray:
+    """The poses ``(m, 6)`` the true machine reaches for the nominal leg commands of
+    ``commanded`` poses (noise-free)."""
+    commanded = np.asarray(commanded, dtype=float).reshape(-1, 6)
+    readings = leg_readings(nominal, inverse_kinematics(nominal, commanded))
+    fk = forward_kinematics(true, leg_lengths(true, readings), guess=commanded)
+    assert fk.all_converged, "the true machine must reach every commanded pose"
+    return fk.poses

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
 from typing import TYPE_CHECKING, Any
 
 from hexcal.cli.common import (
@@ -148,16 +147,12 @@ def cmd_errormap(args: argparse.Namespace) -> None:
 
 
 def cmd_observability(args: argparse.Namespace) -> None:
-    """Observability indices and predicted accuracy of a pose file."""
-    if args.setup:  # an instrument setup: cli/instrument_plan.py
-        from hexcal.cli.instrument_plan import observability_with_setup
-
-        return observability_with_setup(args)
+    """Observability indices and predicted accuracy of a pose file, for any instrument."""
     import numpy as np
 
     from hexcal.core import workspace_corners
     from hexcal.design import SCALINGS, analyse_poses, check_feasibility
-    from hexcal.io import atomic_write, read_poses
+    from hexcal.io import atomic_write, load_instrument, read_poses
     from hexcal.report import render
 
     check_outputs(args.json, args.html)
@@ -166,6 +161,7 @@ def cmd_observability(args: argparse.Namespace) -> None:
 
         check_html_target(args.html, [args.geometry, args.poses, args.test_poses], [args.json])
     geometry = load_geometry(args.geometry, args.euler)
+    instrument = load_instrument(args.setup, geometry.euler)
     scaling = choice(args.scaling, SCALINGS, "--scaling")
     method = choice(args.method, ("ml", "length", "paper"), "--method")
     mask = fit_mask(args.fit)
@@ -179,10 +175,8 @@ def cmd_observability(args: argparse.Namespace) -> None:
         test = None
     try:
         analysis = analyse_poses(
-            geometry, poses, noise, mask, test, scaling, "length" if method == "ml" else method, args.weighted
+            geometry, poses, noise, mask, test, scaling, method, args.weighted, instrument, args.fix or ()
         )
-        if method == "ml":
-            analysis = _as_ml(analysis, geometry, poses, noise, mask, test)
     except np.linalg.LinAlgError as exc:
         raise CommandError(f"{args.poses}: cannot analyse these poses ({exc})") from None
     report = check_feasibility(geometry, poses)
@@ -190,7 +184,6 @@ def cmd_observability(args: argparse.Namespace) -> None:
         bad = [ids[k] for k in np.flatnonzero(~report.feasible)]
         warn(f"hexcal: warning: {args.poses}: {report.summary()} (ids {id_list(bad)})")
     data = analysis.to_dict()
-    data["method"] = method
     print(render("observability", data, fit=args.fit))
     if args.json:
         with atomic_write(args.json) as fh:
@@ -200,43 +193,16 @@ def cmd_observability(args: argparse.Namespace) -> None:
         from hexcal.cli.common import inputs_record
         from hexcal.report.html_reports import observability_report, render_html
 
-        files = {"geometry": args.geometry, "poses": args.poses, "test poses": args.test_poses}
+        files = {
+            "geometry": args.geometry,
+            "poses": args.poses,
+            "test poses": args.test_poses,
+            "setup": args.setup,
+        }
         page = observability_report(data, poses, geometry.workspace, inputs_record(files, args))
         with atomic_write(args.html) as fh:
             fh.write(render_html(page))
         print(f"wrote the HTML report to {args.html}")
-
-
-def _as_ml(analysis: Any, geometry: Any, poses: Any, noise: Any, mask: Any, test: Any) -> Any:
-    """The analysis with the maximum-likelihood estimator's prediction (identify's default):
-    its covariance is the Cramér–Rao bound, at the parameters and at the test poses."""
-    import dataclasses
-
-    import numpy as np
-
-    from hexcal.calibration import predicted_pose_errors
-    from hexcal.estimation import cramer_rao_covariance
-
-    changes: dict[str, Any] = {
-        "std_estimator": analysis.std_bound,
-        "mean_error_estimator": analysis.mean_error_bound,
-    }
-    if test is not None and analysis.test_position_rms.size:
-        pos, rot = predicted_pose_errors(
-            geometry, test, cramer_rao_covariance(geometry, poses, noise, mask), mask
-        )
-        lost = ~np.isfinite(analysis.test_position_rms)  # unbounded stays unbounded
-        changes["test_position_rms"] = np.where(lost, np.inf, pos)
-        changes["test_orientation_rms"] = np.where(lost, np.inf, rot)
-    return dataclasses.replace(analysis, **changes)
-
-
-def _headline_ml(data: dict[str, Any]) -> None:
-    """``select``'s predictions for identify's default estimator (ml: the Cramér–Rao bound);
-    the unweighted least-squares prediction stays under ``length``."""
-    data["method"] = "ml"
-    for row in data["predicted_mean_abs_error_mm"].values():
-        row["length"], row["estimator"] = row["estimator"], row["bound"]
 
 
 # -- candidates and select ---------------------------------------------------------------------
@@ -256,66 +222,12 @@ def cmd_candidates(args: argparse.Namespace) -> None:
     print(f"wrote {len(kept)} feasible of {len(ids)} candidate pose(s) to {args.out}")
 
 
-def _select(args: argparse.Namespace, geometry: Any, criterion: str, noise: Any, mask: Any, rng: Any) -> Any:
-    """The :class:`hexcal.design.planning.PoseSelection` of ``hexcal select``'s options."""
-    from hexcal.design import information_blocks, random_subsets, select_poses
-    from hexcal.design.planning import PoseSelection, compare_strategies, feasible_corners
-
-    n = args.n
-    corners, corner_ids = feasible_corners(geometry, args.min_distance)
-    start = time.perf_counter()
-    warning = result = None
-    if args.strategy == "paper":
-        if corners is None:
-            raise CommandError("--strategy paper needs a geometry with a workspace box")
-        if n > len(corners):
-            raise CommandError(
-                f"--n {n}: the paper's strategy draws from only {len(corners)} feasible corners"
-            )
-        chosen = random_subsets(len(corners), n, 1, rng)[0]
-        poses, ids = corners[chosen], [f"c{int(corner_ids[k]):02d}" for k in chosen]
-        label = f"{n} random feasible corners (the seed paper's strategy), seed {args.seed}"
-    else:
-        candidates, cand_ids = candidate_spec(args.candidates, geometry, args.seed)
-        feasible, kept, warning = feasible_candidates(geometry, candidates, cand_ids, args.min_distance)
-        if n > len(kept):
-            dropped = f" ({len(cand_ids) - len(kept)} infeasible left out)" if warning else ""
-            raise CommandError(f"--n {n}: only {len(kept)} feasible candidate pose(s){dropped}")
-        blocks = information_blocks(geometry, feasible, noise, mask)
-        result = select_poses(blocks, n, criterion, rng, exchange=not args.no_exchange)
-        poses, ids = feasible[result.indices], [kept[k] for k in result.indices]
-        label = (
-            f"{criterion}-optimal from {len(kept)} feasible candidates ({args.candidates}), seed {args.seed}"
-        )
-    seconds = time.perf_counter() - start
-    comparison = compare_strategies(geometry, poses, noise, mask, rng, corners)
-    selection = PoseSelection(
-        args.strategy,
-        n,
-        args.seed,
-        poses,
-        ids,
-        label,
-        seconds,
-        comparison,
-        selection=result,
-        criterion=criterion,
-        candidates=args.candidates,
-    )
-    return selection, warning
-
-
 def cmd_select(args: argparse.Namespace) -> None:
-    """Optimal measurement poses, compared with the seed paper's strategy and random poses."""
-    if args.setup:  # an instrument setup: cli/instrument_plan.py
-        from hexcal.cli.instrument_plan import select_with_setup
-
-        return select_with_setup(args)
-    import numpy as np
-
-    from hexcal.core import MIN_POSES
+    """Optimal measurement poses for any instrument, beside the seed paper's strategy and
+    random poses."""
     from hexcal.design import CRITERIA
-    from hexcal.io import atomic_write, write_poses
+    from hexcal.design.planning import plan_selection
+    from hexcal.io import atomic_write, load_instrument, write_poses
     from hexcal.report import render
 
     check_outputs(args.out, args.json, args.html)
@@ -324,17 +236,37 @@ def cmd_select(args: argparse.Namespace) -> None:
 
         check_html_target(args.html, [args.geometry], [args.out, args.json])
     geometry = load_geometry(args.geometry, args.euler)
+    instrument = load_instrument(args.setup, geometry.euler)
     criterion = choice(args.criterion, CRITERIA, "--criterion")
-    choice(args.strategy, ("optimal", "paper"), "--strategy")
+    strategy = choice(args.strategy, ("optimal", "paper"), "--strategy")
     mask = fit_mask(args.fit)
     noise = _noise(args)
     n = args.n
-    min_poses = MIN_POSES + (1 if mask[42:].any() else 0)
-    if n < min_poses:
-        raise CommandError(f"--n {n}: at least {min_poses} poses are needed to identify the parameters")
-    selection, warning = _select(args, geometry, criterion, noise, mask, np.random.default_rng(args.seed))
+    candidates = kept = warning = None
+    if strategy == "optimal":
+        poses, cand_ids = candidate_spec(args.candidates, geometry, args.seed)
+        candidates, kept, warning = feasible_candidates(geometry, poses, cand_ids, args.min_distance)
+        if n > len(kept):
+            dropped = f" ({len(cand_ids) - len(kept)} infeasible left out)" if warning else ""
+            raise CommandError(f"--n {n}: only {len(kept)} feasible candidate pose(s){dropped}")
+    selection = plan_selection(
+        geometry,
+        n,
+        noise,
+        mask,
+        args.seed,
+        strategy=strategy,
+        candidates=candidates,
+        candidate_ids=kept,
+        criterion=criterion,
+        exchange=not args.no_exchange,
+        min_distance=args.min_distance,
+        spec=args.candidates,
+        seed=args.seed,
+        instrument=instrument,
+        fix=args.fix or (),
+    )
     data = selection.to_dict()
-    _headline_ml(data)
     print(render("select", data))
     if warning:
         warn(warning)
@@ -395,6 +327,7 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: plan for targets or a tool")
+    p.add_argument("--fix", nargs="+", metavar="NAME", help="parameters or groups to hold, e.g. frame")
     p.set_defaults(
         func=cmd_observability,
         inputs=("geometry", "poses", "test_poses", "setup"),
@@ -433,6 +366,7 @@ def register(sub: Any) -> None:
     p.add_argument("--no-exchange", action="store_true", help="greedy selection only")
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: poses optimal for it")
+    p.add_argument("--fix", nargs="+", metavar="NAME", help="parameters or groups to hold, e.g. frame")
     p.set_defaults(func=cmd_select, inputs=("geometry", "setup"), outputs=("out", "json", "html"), folders=())
     for name in ("errormap", "observability", "candidates", "select"):
         show_defaults(sub.choices[name])

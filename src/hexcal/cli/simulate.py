@@ -71,17 +71,17 @@ def _machines(nominal: Any, true: Any) -> dict[str, Any]:
 
 
 def cmd_simulate(args: argparse.Namespace) -> None:
-    """Monte Carlo study of calibration campaigns: strategies x pose counts x noise x methods."""
-    if args.setup:  # an instrument setup: cli/instrument_plan.py
-        from hexcal.cli.instrument_plan import simulate_with_setup
-
-        return simulate_with_setup(args)
+    """Monte Carlo study of calibration campaigns: strategies x pose counts x noise x methods,
+    measured by any instrument (``--setup``: its true setup)."""
     from hexcal.core import NoiseModel
     from hexcal.design.planning import optimal_poses
     from hexcal.estimation import ESTIMATORS
-    from hexcal.simulation import STRATEGIES, fixed_strategy, run_study
+    from hexcal.io import load_instrument
+    from hexcal.simulation import STRATEGIES, fixed_strategy, instrument_campaign, run_study
 
     nominal = load_geometry(args.geometry)
+    instrument = load_instrument(args.setup, nominal.euler)
+    campaign = instrument_campaign(instrument, args.fit, missing_rate=args.missing_rate)
     true, note = _true_machine(args, default="random")
     check_trials(args.trials)
     if args.html:
@@ -98,7 +98,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     strategies = {s: STRATEGIES[s] for s in names if s in STRATEGIES}
     if "selected" in names:
         strategies["selected"] = fixed_strategy(
-            {n: optimal_poses(nominal, n, base, args.seed) for n in counts}
+            {n: optimal_poses(nominal, n, base, args.seed, instrument) for n in counts}
         )
     levels = _noise_levels(args.noise_levels)
     noises = {
@@ -126,6 +126,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         jobs=args.jobs,
         progress=Progress("identifications", args.quiet),
         executor=args.executor,
+        campaign=campaign,
+        fit=args.fit,
     )
     from hexcal.report import render
 
@@ -138,6 +140,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
             "pose, or the identification failed): left out of the statistics, counted in 'failures'"
         )
     study = {
+        "instrument": instrument.describe(),
+        "fit": args.fit,
         "trials": args.trials,
         "seed": args.seed,
         "noise": base.describe(),
@@ -294,8 +298,20 @@ def register(sub: Any) -> None:
     p.add_argument("--out", help="folder for study.json, study.csv and study.png")
     p.add_argument("--html", metavar="FILE", help="save a self-contained HTML report (table, figure, inputs)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    p.add_argument("--setup", metavar="FILE", help="true tracker setup YAML: campaigns with targets (ml)")
-    p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
+    p.add_argument(
+        "--setup",
+        metavar="FILE",
+        help="true instrument setup YAML (frame given): campaigns measured by it, identified from "
+        "the frame auto",
+    )
+    p.add_argument(
+        "--missing-rate", type=float, default=0.0, help="with a target setup: share of lost targets"
+    )
+    p.add_argument(
+        "--fit",
+        default="joints,l0",
+        help="machine parameter groups identified: joints, base, platform, l0, gains",
+    )
     p.set_defaults(
         func=with_scheduler(cmd_simulate),
         inputs=("geometry", "true", "pose_covariance", "setup"),

@@ -48,9 +48,9 @@ def check_variant(variant: str) -> str:
 
 
 def pose_frames(poses: ArrayLike, euler: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Rotation matrices ``(m, 3, 3)`` and positions ``(m, 3)`` of poses ``(m, 6)``."""
-    poses = as_poses(poses, "poses").reshape(-1, 6)
-    return rotation_matrices(poses[:, 3:], euler), np.ascontiguousarray(poses[:, :3])
+    """Rotation matrices ``(..., 3, 3)`` and positions ``(..., 3)`` of poses ``(..., 6)``."""
+    poses = as_poses(poses, "poses")
+    return rotation_matrices(poses[..., 3:], euler), np.ascontiguousarray(poses[..., :3])
 
 
 def leg_vectors_of(

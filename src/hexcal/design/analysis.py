@@ -10,6 +10,7 @@ those design modules.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,8 +21,9 @@ from hexcal.calibration.accuracy import pose_error_map, predicted_pose_errors
 from hexcal.core import PARAMETER_SCALE, Geometry, NoiseModel, as_poses, parameter_names
 from hexcal.design.accuracy import least_squares_covariance, length_mean_abs
 from hexcal.design.identifiability import as_mask, format_combination, null_space, planning_jacobian
-from hexcal.design.indices import ObservabilityIndices, observability_indices
+from hexcal.design.indices import SCALINGS, ObservabilityIndices, observability_indices
 from hexcal.estimation import cramer_rao_covariance, whitened_jacobian
+from hexcal.instruments.base import MeasurementModel
 
 
 @dataclass(frozen=True)
@@ -51,6 +53,13 @@ class PoseSetAnalysis:
     noise : NoiseModel
     weighted : bool
         Whether the indices are of the noise-whitened Jacobian.
+    instrument : str
+        What measures the poses.
+    gauges : tuple of str
+        The gauge freedoms of an instrument in its own frame (the indices, rank and σ are
+        those beyond them, the σ of the gauge-fixed parameters).
+    n_machine : int, optional
+        Machine parameters among :attr:`names` (the rest are the instrument's).
     """
 
     names: tuple[str, ...]
@@ -67,6 +76,9 @@ class PoseSetAnalysis:
     method: str
     noise: NoiseModel
     weighted: bool
+    instrument: str = "full pose in the base frame"
+    gauges: tuple[str, ...] = ()
+    n_machine: int | None = None
 
     @property
     def rank(self) -> int:
@@ -79,6 +91,8 @@ class PoseSetAnalysis:
         Non-finite values (not identifiable) stay ``inf``; the report layer writes them as
         null. ``test_poses`` is present only when test poses were analysed.
         """
+        joints = [k for k, n in enumerate(self.names) if n[0] in "us" and n[1:2].isdigit()]
+        l0 = [k for k, n in enumerate(self.names) if n.startswith("l0_")]
         out: dict[str, Any] = {
             "n_poses": self.n_poses,
             "n_parameters": len(self.names),
@@ -104,6 +118,16 @@ class PoseSetAnalysis:
             },
         }
         out["condition_number"] = float(self.indices.condition_number)
+        out |= {
+            "instrument": self.instrument,
+            "n_machine_parameters": len(self.names) if self.n_machine is None else self.n_machine,
+            "gauges": len(self.gauges),
+            "gauge_labels": list(self.gauges),
+            "identifiable": not self.unidentifiable,
+            "joint_bound_mm": float(np.median(self.std_bound[joints])) if joints else None,
+            "joint_bound_max_mm": float(np.max(self.std_bound[joints])) if joints else None,
+            "l0_bound_mm": float(np.median(self.std_bound[l0])) if l0 else None,
+        }
         pos, rot = self.test_position_rms, self.test_orientation_rms
         if pos.size:
             out["test_poses"] = {
@@ -127,6 +151,8 @@ def analyse_poses(
     scaling: str = "norm",
     method: str = "length",
     weighted: bool = False,
+    instrument: MeasurementModel | None = None,
+    fix: Any = (),
 ) -> PoseSetAnalysis:
     """Observability indices, identifiability and predicted accuracy of a pose set.
 
@@ -144,10 +170,20 @@ def analyse_poses(
         Where to predict the pose error after calibration (default none).
     scaling : {"norm", "parameter", "none"}
         Column scaling of the indices (:func:`column_scales`).
-    method : {"length", "paper"}
-        Residual of the estimator whose covariance is predicted.
+    method : {"length", "paper", "ml"}
+        The estimator whose covariance is predicted: the unweighted least squares of the leg
+        lengths or of their squares, or maximum likelihood (``identify``'s default: its
+        covariance is the Cramér–Rao bound).
     weighted : bool
         Compute the indices on the noise-whitened Jacobian instead of the plain one.
+    instrument : MeasurementModel, optional
+        What measures the poses (default the full pose in the base frame). An instrument that
+        does not give the pose (a free frame or tool, targets) is analysed by its
+        pose-eliminated, noise-whitened Jacobian beyond its gauge freedoms
+        (:func:`analyse_instrument`): ``method`` must then be ``ml`` and the indices are
+        weighted.
+    fix : sequence of str
+        Parameters or groups to hold (instrument quantities: ``frame``...).
 
     Returns
     -------
@@ -167,6 +203,8 @@ def analyse_poses(
     24
     """
     noise = NoiseModel() if noise is None else noise
+    if instrument is not None and not instrument.determines_pose:
+        return analyse_instrument(geometry, instrument, poses, noise, mask, test_poses, method, scaling, fix)
     mask = as_mask(mask)
     poses = as_poses(poses).reshape(-1, 6)
     names = parameter_names(mask)
@@ -179,8 +217,9 @@ def analyse_poses(
     indices = observability_indices(jac, scaling, scale)
     lost = null_space(jac)
     not_identifiable = np.any(np.abs(lost) > 0, axis=0) if lost.size else np.zeros(len(names), dtype=bool)
-    std_bound = np.sqrt(np.clip(np.diag(cramer_rao_covariance(geometry, poses, noise, mask)), 0, None))
-    cov_est = least_squares_covariance(geometry, poses, noise, mask, method)
+    cov_bound = cramer_rao_covariance(geometry, poses, noise, mask)
+    std_bound = np.sqrt(np.clip(np.diag(cov_bound), 0, None))
+    cov_est = cov_bound if method == "ml" else least_squares_covariance(geometry, poses, noise, mask, method)
     std_est = np.sqrt(np.clip(np.diag(cov_est), 0, None))
     std_bound[not_identifiable] = np.inf
     std_est[not_identifiable] = np.inf
@@ -211,4 +250,95 @@ def analyse_poses(
         method=method,
         noise=noise,
         weighted=weighted,
+    )
+
+
+def analyse_instrument(
+    geometry: Geometry,
+    instrument: MeasurementModel,
+    poses: ArrayLike,
+    noise: NoiseModel,
+    mask: ArrayLike | None = None,
+    test_poses: ArrayLike | None = None,
+    method: str = "ml",
+    scaling: str = "norm",
+    fix: Any = (),
+) -> PoseSetAnalysis:
+    """:func:`analyse_poses` of an instrument that does not give the pose by itself.
+
+    Its maximum-likelihood estimate is the only one (the predicted σ is the Cramér–Rao bound of
+    the gauge-fixed parameters), and the indices are always of the noise-whitened,
+    pose-eliminated Jacobian (the pose is not measured: there is no unweighted leg Jacobian),
+    columns scaled by ``scaling``, in the directions orthogonal to the gauge freedoms: a single
+    target, or poses that never rotate, show as a lost rank and infinite σ.
+    """
+    from hexcal.core.linalg import null_space as null_rows
+    from hexcal.design.instrument_table import plan_problem
+    from hexcal.errors import UsageError
+    from hexcal.estimation import complement_basis, gauge_fixed_covariance, gauge_freedoms, projected_jacobian
+    from hexcal.estimation import unidentifiable as lost_beyond
+
+    if method != "ml":
+        raise UsageError(
+            f"method {method!r}: the {instrument.describe()} does not give the platform pose; only the "
+            "maximum-likelihood estimate (ml) applies"
+        )
+    machine = np.asarray(as_mask(mask), dtype=bool)
+    flags = np.asarray(geometry.machine_parameters().vary) if mask is None else machine
+    problem = plan_problem(geometry, instrument, poses, fix=fix, mask=flags)
+    jac = projected_jacobian(problem, noise)
+    gauge = gauge_freedoms(problem, problem.full0)
+    basis = complement_basis(gauge)
+    if scaling not in SCALINGS:
+        raise UsageError(f"unknown scaling {scaling!r}; choose from {', '.join(SCALINGS)}")
+    # the rows are in solver units (the parameters' scales): "parameter" scaling as they are
+    norms = {"norm": np.linalg.norm(jac, axis=0), "parameter": np.ones(jac.shape[1]), "none": problem.scale}[
+        scaling
+    ]
+    scaled = jac / np.where(norms > 0, norms, 1.0)
+    gen = gauge.generators * norms[:, None]
+    reduced = scaled @ (
+        complement_basis(type(gauge)(gen, gauge.labels, gauge.metric)) if gauge.size else basis
+    )
+    indices = dataclasses.replace(observability_indices(reduced, "none"), scaling=scaling)
+    names = problem.names
+    weak = lost_beyond(problem, jac, gauge)
+    cov = gauge_fixed_covariance(problem, jac, gauge)
+    std = np.sqrt(np.clip(np.diag(cov), 0, None))
+    not_identifiable = np.zeros(len(names), dtype=bool)
+    if weak:
+        lost, _ = null_rows(jac @ basis)
+        not_identifiable = np.any(np.abs(basis @ lost.T) > 1e-6, axis=1) if lost.size else not_identifiable
+    std[not_identifiable] = np.inf
+    rows = np.isin(names, geometry.machine_names())
+    if test_poses is None:
+        pos_rms = rot_rms = np.empty(0)
+    else:
+        tp = as_poses(test_poses, "test poses").reshape(-1, 6)
+        names_m = tuple(np.asarray(names)[rows])
+        mm = np.isin(geometry.machine_names(), names_m)
+        rigid = (gauge.generators * problem.scale[:, None])[rows] if gauge.size else None
+        pos_rms, rot_rms = predicted_pose_errors(geometry, tp, cov[np.ix_(rows, rows)], mm, rigid)
+        if not_identifiable.any():
+            pos_rms = np.where(np.any(not_identifiable[rows]), np.inf, pos_rms)
+            rot_rms = np.where(np.any(not_identifiable[rows]), np.inf, rot_rms)
+    machine_names = tuple(np.asarray(names)[rows])
+    return PoseSetAnalysis(
+        names=names,
+        n_poses=len(problem),
+        indices=indices,
+        unidentifiable=weak,
+        not_identifiable=not_identifiable,
+        std_bound=std,
+        std_estimator=std.copy(),
+        mean_error_bound=length_mean_abs(std[rows], machine_names),
+        mean_error_estimator=length_mean_abs(std[rows], machine_names),
+        test_position_rms=pos_rms,
+        test_orientation_rms=rot_rms,
+        method="ml",
+        noise=noise,
+        weighted=True,
+        instrument=instrument.describe(),
+        gauges=gauge.labels,
+        n_machine=int(rows.sum()),
     )

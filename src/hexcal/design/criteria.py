@@ -19,6 +19,8 @@ of :mod:`hexcal.core.linalg`. Imports :mod:`hexcal.core` and :mod:`hexcal.estima
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -49,6 +51,8 @@ def information_blocks(
     poses: ArrayLike,
     noise: NoiseModel | None = None,
     mask: ArrayLike | None = None,
+    instrument: Any = None,
+    fix: Any = (),
 ) -> NDArray[np.float64]:
     """Per-pose noise-whitened identification Jacobians ``B_j``, shape (m, 6, n).
 
@@ -64,8 +68,25 @@ def information_blocks(
     """
     mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
     poses = np.asarray(poses, dtype=float).reshape(-1, 6)
+    if instrument is not None and not instrument.determines_pose:
+        return instrument_blocks(geometry, instrument, poses, noise, mask, fix)
     wa = whitened_jacobian(geometry, poses, noise, mask)
     return wa.reshape(poses.shape[0], 6, -1) * PARAMETER_SCALE[mask]
+
+
+def instrument_blocks(
+    geometry: Geometry, instrument: Any, poses: ArrayLike, noise: NoiseModel | None, mask: Any, fix: Any = ()
+) -> NDArray[np.float64]:
+    """Per-candidate information rows ``B_j`` of an instrument that does not give the pose:
+    the pose-eliminated, noise-whitened rows (:func:`hexcal.estimation.information_rows`) in
+    the directions orthogonal to its gauge freedoms, ``(m, 6 + k, n - g)``, so that
+    ``Σ B_jᵀ B_j`` is the information of the gauge-fixed parameters."""
+    from hexcal.design.instrument_table import plan_problem
+    from hexcal.estimation import complement_basis, gauge_freedoms, information_rows
+
+    problem = plan_problem(geometry, instrument, poses, fix=fix, mask=mask)
+    rows = information_rows(problem, NoiseModel() if noise is None else noise)[0]
+    return rows @ complement_basis(gauge_freedoms(problem, problem.full0))
 
 
 def information_matrix(blocks: ArrayLike, indices: ArrayLike | None = None) -> NDArray[np.float64]:

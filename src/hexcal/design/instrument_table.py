@@ -35,13 +35,18 @@ TABLE_TARGETS = {"t1": [0.0, 0.0, 60.0], "t2": [150.0, 20.0, 55.0], "t3": [-40.0
 
 
 def plan_problem(
-    geometry: Geometry, instrument: MeasurementModel, poses: ArrayLike, fit: str | None = None, fix: Any = ()
+    geometry: Geometry,
+    instrument: MeasurementModel,
+    poses: ArrayLike,
+    fit: str | None = None,
+    fix: Any = (),
+    mask: ArrayLike | None = None,
 ) -> Problem:
     """The noise-free problem of ``instrument`` at ``poses`` (an unknown frame stands at its
     start: ranks and isotropic bounds do not depend on where the instrument stands)."""
     if instrument.unregistered:
         instrument = instrument.with_values(instrument.parameters().values)
-    return Problem(geometry, planned_session(geometry, instrument, poses), fit=fit, fix=fix)
+    return Problem(geometry, planned_session(geometry, instrument, poses), mask=mask, fit=fit, fix=fix)
 
 
 def instrument_plan(

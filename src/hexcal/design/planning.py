@@ -32,7 +32,9 @@ from hexcal.errors import SelectionError
 COMPARISON_DRAWS = 20
 
 
-def optimal_poses(nominal: Geometry, n: int, noise: NoiseModel, seed: int) -> NDArray[np.float64]:
+def optimal_poses(
+    nominal: Geometry, n: int, noise: NoiseModel, seed: int, instrument: Any = None
+) -> NDArray[np.float64]:
     """``n`` A-optimal poses of the workspace boundary grid for the nominal geometry.
 
     A-optimality minimises the sum of the parameter variances, the criterion closest to
@@ -63,7 +65,9 @@ def optimal_poses(nominal: Geometry, n: int, noise: NoiseModel, seed: int) -> ND
     """
     candidates = candidate_poses(nominal, "grid")
     candidates = candidates[check_feasibility(nominal, candidates).feasible]
-    chosen = select_poses(information_blocks(nominal, candidates, noise), n, "A", rng=seed)
+    chosen = select_poses(
+        information_blocks(nominal, candidates, noise, instrument=instrument), n, "A", rng=seed
+    )
     return candidates[chosen.indices]
 
 
@@ -90,7 +94,12 @@ def feasible_corners(
 
 
 def predicted_error(
-    geometry: Geometry, pose_sets: ArrayLike, noise: NoiseModel, mask: ArrayLike | None = None
+    geometry: Geometry,
+    pose_sets: ArrayLike,
+    noise: NoiseModel,
+    mask: ArrayLike | None = None,
+    instrument: Any = None,
+    fix: Any = (),
 ) -> tuple[float, float]:
     """Mean over pose sets of the predicted mean absolute parameter error (mm).
 
@@ -119,6 +128,14 @@ def predicted_error(
     from hexcal.estimation import cramer_rao_covariance
 
     sets = np.asarray(pose_sets, dtype=float)
+    if instrument is not None and not instrument.determines_pose:
+        errors = [
+            analyse_poses(
+                geometry, s, noise, mask, method="ml", weighted=True, instrument=instrument, fix=fix
+            ).mean_error_bound
+            for s in sets
+        ]
+        return float(np.mean(errors)), float(np.mean(errors))
     est = [mean_abs_error(least_squares_covariance(geometry, s, noise, mask), mask) for s in sets]
     bound = [mean_abs_error(cramer_rao_covariance(geometry, s, noise, mask), mask) for s in sets]
     return float(np.mean(est)), float(np.mean(bound))
@@ -145,13 +162,17 @@ class StrategyComparison:
         return 1 - self.rows["selected"][0] / self.rows["paper"][0]
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-Python form: ``predicted_mean_abs_error_mm`` (as ``hexcal select --json``)
-        and ``comparisons`` (the descriptions)."""
+        """Plain-Python form: ``predicted_mean_abs_error_mm`` (as ``hexcal select --json``) for
+        ``identify``'s default estimator, maximum likelihood (``estimator``: its covariance is
+        the Cramér–Rao ``bound``), with the unweighted least squares under ``length``; and
+        ``comparisons`` (the descriptions)."""
         return {
             "predicted_mean_abs_error_mm": {
-                key: {"estimator": est, "bound": bound} for key, (est, bound) in self.rows.items()
+                key: {"estimator": bound, "bound": bound, "length": est}
+                for key, (est, bound) in self.rows.items()
             },
             "comparisons": dict(self.descriptions),
+            "method": "ml",
         }
 
 
@@ -163,6 +184,8 @@ def compare_strategies(
     rng: np.random.Generator | int | None = None,
     corners: NDArray[np.float64] | None = None,
     draws: int = COMPARISON_DRAWS,
+    instrument: Any = None,
+    fix: Any = (),
 ) -> StrategyComparison:
     """Predicted accuracy of ``poses`` beside the seed paper's strategy and random interior poses.
 
@@ -181,6 +204,11 @@ def compare_strategies(
         interior comparison needs a workspace box.
     draws : int
         Pose sets averaged per comparison.
+    instrument : MeasurementModel, optional
+        What measures the poses (default the full pose); one that does not give the pose is
+        compared by its maximum-likelihood bound.
+    fix : sequence of str
+        Parameters or groups held (an instrument's quantities).
 
     Raises
     ------
@@ -199,22 +227,26 @@ def compare_strategies(
     poses = np.asarray(poses, dtype=float)
     n = len(poses)
     rng = np.random.default_rng(rng)
-    analysis = analyse_poses(geometry, poses, noise, mask)
-    if analysis.rank < len(analysis.names):
+    quiet = instrument is not None and not instrument.determines_pose
+    options = {"method": "ml", "weighted": True, "instrument": instrument, "fix": fix} if quiet else {}
+    analysis = analyse_poses(geometry, poses, noise, mask, **options)
+    if analysis.unidentifiable:
         lost = analysis.unidentifiable
+        beyond = f" beyond the {len(analysis.gauges)} gauge freedoms" if analysis.gauges else ""
         raise SelectionError(
-            f"the selected poses identify only rank {analysis.rank} of {len(analysis.names)} parameters; "
+            f"the selected poses identify only rank {analysis.rank} of "
+            f"{len(analysis.names) - len(analysis.gauges)} parameters{beyond}; "
             f"lost: {', '.join(lost[:4])}{' ...' if len(lost) > 4 else ''}"
         )
     rows = {"selected": (analysis.mean_error_estimator, analysis.mean_error_bound)}
     descriptions: dict[str, str] = {}
     if corners is not None and n <= len(corners):
         sets = corners[random_subsets(len(corners), n, draws, rng)]
-        rows["paper"] = predicted_error(geometry, sets, noise, mask)
+        rows["paper"] = predicted_error(geometry, sets, noise, mask, instrument, fix)
         descriptions["paper"] = f"{n} random corners (the seed paper), mean of {draws} draws"
     if geometry.workspace is not None:
         interior = random_interior(geometry.workspace, draws * n, rng).reshape(-1, n, 6)
-        rows["interior"] = predicted_error(geometry, interior, noise, mask)
+        rows["interior"] = predicted_error(geometry, interior, noise, mask, instrument, fix)
         descriptions["interior"] = f"{n} random interior poses, mean of {draws} draws"
     return StrategyComparison(n, rows, descriptions)
 
@@ -276,3 +308,87 @@ class PoseSelection:
             "greedy_text": describe_value(r.greedy_value, self.criterion) if r is not None else None,
             "value_text": describe_value(r.value, self.criterion) if r is not None else None,
         }
+
+
+def plan_selection(
+    geometry: Geometry,
+    n: int,
+    noise: NoiseModel,
+    mask: ArrayLike | None = None,
+    rng: np.random.Generator | int | None = None,
+    *,
+    strategy: str = "optimal",
+    candidates: NDArray[np.float64] | None = None,
+    candidate_ids: list[str] | None = None,
+    criterion: str = "A",
+    exchange: bool = True,
+    min_distance: float | None = None,
+    spec: str = "grid",
+    seed: int = 0,
+    instrument: Any = None,
+    fix: Any = (),
+) -> PoseSelection:
+    """Measurement poses by a strategy, with their predicted accuracy beside the others.
+
+    ``strategy`` ``optimal``: ``criterion``-optimal poses among the feasible ``candidates``
+    (greedy and exchange on the per-pose information of ``instrument``, default the full
+    pose); ``paper``: ``n`` random feasible corners (the seed paper's strategy). The
+    comparison (:func:`compare_strategies`) is for the same instrument. ``spec`` and ``seed``
+    only describe the selection.
+
+    Raises
+    ------
+    SelectionError
+        A strategy the geometry does not allow, too few candidates, or poses that do not
+        identify the parameters.
+    """
+    import time
+
+    from hexcal.core.machine import leg_columns
+
+    flags = np.asarray(geometry.machine_parameters().vary if mask is None else mask, dtype=bool)
+    per_leg = int(np.max(flags[leg_columns(geometry.leg_model)].sum(axis=1)))
+    if n < per_leg:
+        raise SelectionError(f"{n} poses: at least {per_leg} are needed to identify the parameters")
+    rng = np.random.default_rng(rng)
+    corners, corner_ids = feasible_corners(geometry, min_distance)
+    start = time.perf_counter()
+    result = None
+    if strategy == "paper":
+        if corners is None:
+            raise SelectionError("the paper's strategy needs a geometry with a workspace box")
+        if n > len(corners):
+            raise SelectionError(
+                f"{n} poses: the paper's strategy draws from only {len(corners)} feasible corners"
+            )
+        chosen = random_subsets(len(corners), n, 1, rng)[0]
+        poses, ids = corners[chosen], [f"c{int(corner_ids[k]):02d}" for k in chosen]
+        label = f"{n} random feasible corners (the seed paper's strategy), seed {seed}"
+    elif strategy == "optimal":
+        if candidates is None or len(candidates) < n:
+            have = 0 if candidates is None else len(candidates)
+            raise SelectionError(f"{n} poses: only {have} feasible candidate pose(s)")
+        blocks = information_blocks(geometry, candidates, noise, mask, instrument, fix)
+        result = select_poses(blocks, n, criterion, rng, exchange=exchange)
+        kept = candidate_ids or [str(k) for k in range(len(candidates))]
+        poses, ids = candidates[result.indices], [kept[k] for k in result.indices]
+        label = f"{criterion}-optimal from {len(kept)} feasible candidates ({spec}), seed {seed}"
+    else:
+        raise SelectionError(f"unknown strategy {strategy!r}; choose from optimal, paper")
+    seconds = time.perf_counter() - start
+    comparison = compare_strategies(
+        geometry, poses, noise, mask, rng, corners, instrument=instrument, fix=fix
+    )
+    return PoseSelection(
+        strategy,
+        n,
+        seed,
+        poses,
+        ids,
+        label,
+        seconds,
+        comparison,
+        selection=result,
+        criterion=criterion,
+        candidates=spec,
+    )

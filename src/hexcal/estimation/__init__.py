@@ -46,7 +46,7 @@ __getattr__, __dir__, __all__ = attach(
         "cramer_rao_covariance": "uncertainty",
         "estimate_batch": "batched",
         "estimate_noise": "noise_estimation",
-        "finish_result": "result",
+        "finish_result": "covariance",
         "fisher_information": "uncertainty",
         "fit_gls": "gls",
         "fit_least_squares": "least_squares",

@@ -20,9 +20,10 @@ from numpy.typing import NDArray
 from hexcal.core.kinematics import pose_jacobian
 from hexcal.core.linalg import whitening
 from hexcal.core.noise import NoiseModel
+from hexcal.estimation.covariance import finish_result
 from hexcal.estimation.least_squares import fit_least_squares, solve_least_squares
 from hexcal.estimation.problem import Problem
-from hexcal.estimation.result import IdentificationResult, finish_result, rms
+from hexcal.estimation.result import IdentificationResult, rms
 from hexcal.estimation.uncertainty import LEG_SIGMA_FLOOR
 
 

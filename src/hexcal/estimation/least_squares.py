@@ -17,8 +17,9 @@ import numpy as np
 
 from hexcal.core.noise import NoiseModel
 from hexcal.errors import IdentificationError
+from hexcal.estimation.covariance import finish_result
 from hexcal.estimation.problem import Problem
-from hexcal.estimation.result import IdentificationResult, finish_result, rms
+from hexcal.estimation.result import IdentificationResult, rms
 
 
 def solve_least_squares(fun: Any, jac: Any, x0: np.ndarray, polish: int = 0, **kwargs: Any) -> Any:

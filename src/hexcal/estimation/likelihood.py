@@ -35,11 +35,12 @@ from numpy.typing import NDArray
 from hexcal.core.linalg import floored_whitener
 from hexcal.core.noise import NoiseModel
 from hexcal.errors import IdentificationError
+from hexcal.estimation.covariance import finish_result
 from hexcal.estimation.gauge import Gauge, apply_convention, complement_basis, gauge_freedoms, unidentifiable
 from hexcal.estimation.gls import solve_gls
 from hexcal.estimation.least_squares import fit_least_squares, solve_least_squares
 from hexcal.estimation.problem import Part, Problem
-from hexcal.estimation.result import IdentificationResult, finish_result, rms
+from hexcal.estimation.result import IdentificationResult, rms
 from hexcal.estimation.uncertainty import LEG_SIGMA_FLOOR, POSE_VARIANCE_FLOOR
 
 _INNER_MAX_ITER = 20
@@ -261,6 +262,8 @@ def fit_ml(
     # the leg residuals at the measured poses where the instrument gives them, else at the
     # estimated true poses
     legs = None if problem.determines_pose else (inner.leg_residuals(x0), inner.leg_residuals(x))
+    # the covariance and the bound linearise the gauges at the solution (as at any other point)
+    gauge = gauge_freedoms(problem, problem.unpack(x)) if gauge.size else gauge
     return finish_result(
         problem,
         "ml",

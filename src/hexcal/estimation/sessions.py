@@ -80,6 +80,10 @@ def problem_parameters(
         params = params + sub
         held.append(own.vary)
     instrument_held = np.concatenate([np.ones(len(machine), bool), *held])
+    fix = list(fix)
+    for group in [f for f in fix if f in params.groups]:  # a group name holds the whole group
+        fix.remove(group)
+        fix.extend(params.groups[group])
     if mask is not None:
         flags = np.asarray(mask, dtype=bool)
         if flags.shape == (len(machine),):
@@ -87,6 +91,10 @@ def problem_parameters(
         if flags.shape != (len(params),):
             raise UsageError(f"mask must have shape ({len(machine)},) or ({len(params)},), got {flags.shape}")
         vary = flags & instrument_held
+        for name in fix:
+            if name not in params:
+                raise UsageError(f"unknown parameter {name!r} (names are like u1.x, s3.z, l0_2, g4)")
+            vary[params.index(name)] = False
     else:
         # ``fit`` names the machine's groups; the instruments' quantities vary as their setups
         # say (hold them with ``fix``)
@@ -94,10 +102,6 @@ def problem_parameters(
         groups = [g.strip() for g in fit.split(",") if g.strip()] if isinstance(fit, str) else list(fit)
         instrument_groups = [g for _, own in blocks for g in own.groups if "." not in g]
         fit = list(dict.fromkeys([*groups, *instrument_groups]))
-        fix = list(fix)
-        for group in [f for f in fix if f in params.groups]:  # a group name holds the whole group
-            fix.remove(group)
-            fix.extend(params.groups[group])
         vary = np.array(params.select(fit, fix).vary) & instrument_held
     if not vary.any():
         raise UsageError("no parameter left to identify")

@@ -164,6 +164,12 @@ class MeasurementModel(ABC):
         found (None when nothing needed it)."""
         return self, None
 
+    def as_start(self) -> MeasurementModel:
+        """The instrument as an identification starts from it in a simulated campaign: the
+        quantities a user does not know beforehand marked unknown (an instrument frame
+        ``auto``); itself by default."""
+        return self
+
     @property
     def unregistered(self) -> bool:
         """Whether some of the instrument's quantities are unknown until the data register

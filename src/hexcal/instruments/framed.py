@@ -11,6 +11,7 @@ of an unknown frame (``instrument_frame: auto``) from the data.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -60,6 +61,11 @@ class FramedModel(MeasurementModel):
     @property
     def unregistered(self) -> bool:
         return self.setup.auto
+
+    def as_start(self) -> MeasurementModel:
+        if "instrument_frame" in self.setup.fixed:
+            return self
+        return type(self)(replace(self.setup, frame=None, calibration=None), **self.options())
 
     def start_poses(self, geometry: Geometry, setup: NDArray[np.float64], data: Any) -> NDArray[np.float64]:
         return fk_start_poses(geometry, self.readings(data))

@@ -99,14 +99,21 @@ class ToolModel(FramedModel):
     def observed(self, data: Measurements) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         return data.poses, np.ones(data.poses.shape, dtype=bool)
 
+    # The functions below are batch-first: ``setup`` (..., 12) and ``poses`` (..., m, 6) with
+    # broadcasting batch shapes (one campaign: ``setup`` (12,), ``poses`` (m, 6)).
     def _frames(self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str) -> tuple:
-        rot_f, t_f = frame_transform(setup[:6], euler)
-        rot_t, t_t = frame_transform(setup[6:12], euler)
+        rot_f, t_f = frame_transform(setup[..., :6], euler)
+        rot_t, t_t = frame_transform(setup[..., 6:12], euler)
         rot_p, pos = pose_frames(poses, euler)
-        rt = np.einsum("mjk,k->mj", rot_p, t_t)
+        rt = np.einsum("...mjk,...k->...mj", rot_p, t_t)
         point = pos + rt  # tool origin, base frame
-        rot = np.einsum("ab,mbc,cd->mad", rot_f, rot_p, rot_t)
+        rot = np.einsum("...ab,...mbc,...cd->...mad", rot_f, rot_p, rot_t)
         return rot_f, t_f, rot_t, t_t, rot_p, rt, point, rot
+
+    @staticmethod
+    def _to_instrument(rot_f: NDArray, t_f: NDArray, point: NDArray) -> NDArray[np.float64]:
+        """Base-frame points ``(..., m, 3)`` in instrument coordinates."""
+        return np.einsum("...ij,...mj->...mi", rot_f, point) + t_f[..., None, :]
 
     def predict(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
@@ -114,7 +121,7 @@ class ToolModel(FramedModel):
         if self.identity:
             return np.array(poses)
         rot_f, t_f, *_, point, rot = self._frames(setup, poses, euler)
-        return np.concatenate([point @ rot_f.T + t_f, matrix_to_euler(rot, euler)], axis=1)
+        return np.concatenate([self._to_instrument(rot_f, t_f, point), matrix_to_euler(rot, euler)], axis=-1)
 
     def residual(
         self,
@@ -123,39 +130,40 @@ class ToolModel(FramedModel):
         euler: str,
         observed: NDArray[np.float64],
     ) -> NDArray[np.float64]:
-        """Position difference and orientation residual ``(m, 6)`` (see the module)."""
+        """Position difference and orientation residual ``(..., m, 6)`` (see the module)."""
         if self.identity:
             diff = poses - observed
             if self.orientation == "euler":
-                diff[:, 3:] = _wrap(diff[:, 3:])
+                diff[..., 3:] = _wrap(diff[..., 3:])
                 return diff
         rot_f, t_f, *_, point, rot = self._frames(setup, poses, euler)
-        position = point @ rot_f.T + t_f - observed[:, :3]
+        position = self._to_instrument(rot_f, t_f, point) - observed[..., :3]
         if self.orientation == "euler":
-            return np.concatenate([position, _wrap(matrix_to_euler(rot, euler) - observed[:, 3:])], axis=1)
-        rot_obs = rotation_matrices(observed[:, 3:], euler)
-        omega = rotation_vectors(rot @ rot_obs.transpose(0, 2, 1))
-        w_obs = euler_axes(observed[:, 3:], euler)
-        angular = np.linalg.solve(w_obs.transpose(0, 2, 1), omega[..., None])[..., 0]
-        return np.concatenate([position, angular], axis=1)
+            return np.concatenate([position, _wrap(matrix_to_euler(rot, euler) - observed[..., 3:])], axis=-1)
+        rot_obs = rotation_matrices(observed[..., 3:], euler)
+        omega = rotation_vectors(rot @ np.swapaxes(rot_obs, -1, -2))
+        w_obs = euler_axes(observed[..., 3:], euler)
+        angular = np.linalg.solve(np.swapaxes(w_obs, -1, -2), omega[..., None])[..., 0]
+        return np.concatenate([position, angular], axis=-1)
 
     def _angular(self, rot: NDArray[np.float64], euler: str, phi: NDArray[np.float64]) -> NDArray[np.float64]:
         """Euler-angle increments ``W⁻ᵀ φ`` at the predicted orientation for rotations
-        ``φ (m, 3, k)`` (instrument frame)."""
+        ``φ (..., m, 3, k)`` (instrument frame)."""
         w = euler_axes(matrix_to_euler(rot, euler), euler)
-        return np.linalg.solve(w.transpose(0, 2, 1), phi)
+        return np.linalg.solve(np.swapaxes(w, -1, -2), phi)
 
     def pose_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:
         if self.identity:
-            return np.broadcast_to(np.eye(6), (len(poses), 6, 6))
+            return np.broadcast_to(np.eye(6), (*np.shape(poses)[:-1], 6, 6))
         rot_f, _, _, _, _, rt, _, rot = self._frames(setup, poses, euler)
-        axes = euler_axes(poses[:, 3:], euler)
-        jac = np.zeros((len(poses), 6, 6))
-        jac[:, :3, :3] = rot_f
-        jac[:, :3, 3:] = rot_f @ cross_axes(axes, rt)
-        jac[:, 3:, 3:] = self._angular(rot, euler, rot_f @ axes.transpose(0, 2, 1))
+        axes = euler_axes(poses[..., 3:], euler)
+        rf = rot_f[..., None, :, :]
+        jac = np.zeros((*rot.shape[:-2], 6, 6))
+        jac[..., :3, :3] = rf
+        jac[..., :3, 3:] = rf @ cross_axes(axes, rt)
+        jac[..., 3:, 3:] = self._angular(rot, euler, rf @ np.swapaxes(axes, -1, -2))
         return jac
 
     def whitened_pose_jacobian(
@@ -166,24 +174,27 @@ class ToolModel(FramedModel):
         whitener: NDArray[np.float64],
     ) -> NDArray[np.float64]:
         if self.identity:
-            return np.broadcast_to(whitener, (len(poses), 6, 6))
+            return np.broadcast_to(whitener, (*np.shape(poses)[:-1], 6, 6))
         return np.matmul(whitener, self.pose_jacobian(setup, poses, euler))
 
     def setup_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:
-        rot_f, _, _, _, rot_p, _, point, rot = self._frames(setup, poses, euler)
-        m = len(poses)
-        axes_f = euler_axes(setup[3:6], euler)
-        axes_t = euler_axes(setup[9:12], euler)
-        jac = np.zeros((m, 6, 12))
-        jac[:, :3, :3] = np.eye(3)
-        jac[:, :3, 3:6] = cross_axes(axes_f, point @ rot_f.T)
-        rr = np.einsum("ab,mbc->mac", rot_f, rot_p)
-        jac[:, :3, 6:9] = rr
-        phi = np.concatenate([np.broadcast_to(axes_f.T, (m, 3, 3)), rr @ axes_t.T], axis=2)
+        rot_f, t_f, _, _, rot_p, _, point, rot = self._frames(setup, poses, euler)
+        lead = rot.shape[:-2]
+        axes_f = euler_axes(setup[..., 3:6], euler)[..., None, :, :]  # (..., 1, 3, 3)
+        axes_t = euler_axes(setup[..., 9:12], euler)[..., None, :, :]
+        jac = np.zeros((*lead, 6, 12))
+        jac[..., :3, :3] = np.eye(3)
+        jac[..., :3, 3:6] = cross_axes(axes_f, self._to_instrument(rot_f, t_f, point) - t_f[..., None, :])
+        rr = rot_f[..., None, :, :] @ rot_p
+        jac[..., :3, 6:9] = rr
+        phi = np.concatenate(
+            [np.broadcast_to(np.swapaxes(axes_f, -1, -2), (*lead, 3, 3)), rr @ np.swapaxes(axes_t, -1, -2)],
+            axis=-1,
+        )
         ang = self._angular(rot, euler, phi)
-        jac[:, 3:, 3:6], jac[:, 3:, 9:12] = ang[..., :3], ang[..., 3:]
+        jac[..., 3:, 3:6], jac[..., 3:, 9:12] = ang[..., :3], ang[..., 3:]
         return jac
 
     def covariance(self, noise: NoiseModel) -> NDArray[np.float64]:
@@ -200,8 +211,9 @@ class ToolModel(FramedModel):
         self, values: NDArray[np.float64], platform: tuple[NDArray, NDArray], euler: str
     ) -> NDArray[np.float64]:
         rp, tp = platform
-        rot_t, t_t = frame_transform(values[:6], euler)
-        return np.concatenate([rp @ t_t + tp, matrix_to_euler(rp @ rot_t, euler)])
+        rot_t, t_t = frame_transform(values[..., :6], euler)
+        moved = np.einsum("ij,...j->...i", rp, t_t) + tp
+        return np.concatenate([moved, matrix_to_euler(rp @ rot_t, euler)], axis=-1)
 
     def register(self, geometry: Geometry, data: Measurements) -> tuple[Any, Registration | None]:
         if not self.setup.auto:
@@ -218,15 +230,23 @@ class ToolModel(FramedModel):
         """Platform poses of measured tool poses: ``P = F⁻¹ M T⁻¹`` (frame and tool fixed)."""
         if not self.determines_pose:
             return super().platform_poses(setup, data, euler)
+        return self.platform_from(setup, data.poses, euler)
+
+    def platform_from(
+        self, setup: NDArray[np.float64], measured: NDArray[np.float64], euler: str
+    ) -> NDArray[np.float64]:
+        """``P = F⁻¹ M T⁻¹`` of measured tool poses ``(..., m, 6)`` (batch-first)."""
         if self.identity:
-            return np.array(data.poses)
-        rot_f, t_f = frame_transform(setup[:6], euler)
-        rot_t, t_t = frame_transform(setup[6:12], euler)
-        rot_m = rotation_matrices(data.poses[:, 3:], euler)
-        rot_p = rot_f.T @ rot_m @ rot_t.T
-        origin = (data.poses[:, :3] - t_f) @ rot_f  # tool origin, base frame
-        position = origin - rot_p @ t_t
-        return np.concatenate([position, matrix_to_euler(rot_p, euler)], axis=1)
+            return np.array(measured)
+        rot_f, t_f = frame_transform(setup[..., :6], euler)
+        rot_t, t_t = frame_transform(setup[..., 6:12], euler)
+        rot_m = rotation_matrices(measured[..., 3:], euler)
+        rot_p = (
+            np.swapaxes(rot_f, -1, -2)[..., None, :, :] @ rot_m @ np.swapaxes(rot_t, -1, -2)[..., None, :, :]
+        )
+        origin = np.einsum("...mi,...ij->...mj", measured[..., :3] - t_f[..., None, :], rot_f)  # base frame
+        position = origin - np.einsum("...mij,...j->...mi", rot_p, t_t)
+        return np.concatenate([position, matrix_to_euler(rot_p, euler)], axis=-1)
 
     def platform_covariance(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], noise: NoiseModel, euler: str
@@ -248,9 +268,7 @@ class ToolModel(FramedModel):
         missing_rate: float = 0.0,
     ) -> Measurements:
         if missing_rate:
-            raise UsageError(
-                f"a missing rate applies to targets; the {self.describe()} records whole poses"
-            )
+            raise UsageError(f"a missing rate applies to targets; the {self.describe()} records whole poses")
         values = self.predict(setup, poses, euler)
         if noise is not None:
             values = values + noise.pose_errors(rng, (len(values),))

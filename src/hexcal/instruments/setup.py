@@ -278,9 +278,9 @@ class Setup:
 
 
 def frame_transform(frame: ArrayLike, euler: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Rotation ``(3, 3)`` and translation ``(3,)`` of a pose ``(6,)``."""
+    """Rotation ``(..., 3, 3)`` and translation ``(..., 3)`` of poses ``(..., 6)``."""
     frame = np.asarray(frame, dtype=float)
-    return rotation_matrices(frame[3:], euler), frame[:3].copy()
+    return rotation_matrices(frame[..., 3:], euler), frame[..., :3].copy()
 
 
 def matrix_to_euler(matrices: ArrayLike, euler: str) -> NDArray[np.float64]:
@@ -305,4 +305,4 @@ def transform_frame(frame: ArrayLike, base: tuple[NDArray, NDArray], euler: str)
     rot, trans = frame_transform(frame, euler)
     rb, tb = base
     new_rot = rot @ rb.T
-    return np.concatenate([trans - new_rot @ tb, matrix_to_euler(new_rot, euler)])
+    return np.concatenate([trans - new_rot @ tb, matrix_to_euler(new_rot, euler)], axis=-1)

@@ -59,43 +59,46 @@ class TargetModel(FramedModel):
         present = np.repeat(data.seen, 3, axis=1)
         return np.nan_to_num(data.targets.reshape(len(data), -1)), present
 
+    # The functions below are batch-first: ``setup`` (..., 6 + 3 n) and ``poses`` (..., m, 6)
+    # with broadcasting batch shapes (one campaign: ``setup`` (q,), ``poses`` (m, 6)).
     def _points(self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str) -> tuple:
-        rot_f, t_f = frame_transform(setup[:6], euler)
-        q = setup[6:].reshape(-1, 3)
+        rot_f, t_f = frame_transform(setup[..., :6], euler)
+        q = setup[..., 6:].reshape(*np.shape(setup)[:-1], -1, 3)
         rot_p, pos = pose_frames(poses, euler)
-        rq = np.einsum("mjk,ik->mij", rot_p, q)  # (m, n, 3)
-        return rot_f, t_f, q, rot_p, rq, pos[:, None, :] + rq
+        rq = np.einsum("...mjk,...ik->...mij", rot_p, q)  # (..., m, n, 3)
+        return rot_f, t_f, q, rot_p, rq, pos[..., :, None, :] + rq
 
     def predict(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:
         rot_f, t_f, _, _, _, p = self._points(setup, poses, euler)
-        return (p @ rot_f.T + t_f).reshape(len(poses), -1)
+        values = np.einsum("...ij,...mnj->...mni", rot_f, p) + t_f[..., None, None, :]
+        return values.reshape(*values.shape[:-2], -1)
 
     def pose_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:
         rot_f, _, _, _, rq, _ = self._points(setup, poses, euler)
-        m, n = rq.shape[:2]
-        axes = euler_axes(poses[:, 3:], euler)  # (m, 3, 3) rows w_k
-        jac = np.empty((m, n, 3, 6))
-        jac[..., :3] = rot_f
-        jac[..., 3:] = np.einsum("ab,mnbk->mnak", rot_f, cross_axes(axes[:, None], rq))
-        return jac.reshape(m, 3 * n, 6)
+        lead, n = rq.shape[:-2], rq.shape[-2]
+        axes = euler_axes(poses[..., 3:], euler)  # (..., m, 3, 3) rows w_k
+        jac = np.empty((*lead, n, 3, 6))
+        jac[..., :3] = rot_f[..., None, None, :, :]
+        jac[..., 3:] = np.einsum("...ab,...mnbk->...mnak", rot_f, cross_axes(axes[..., :, None, :, :], rq))
+        return jac.reshape(*lead, 3 * n, 6)
 
     def setup_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:
         rot_f, _, _, rot_p, _, p = self._points(setup, poses, euler)
-        m, n = p.shape[:2]
-        axes_f = euler_axes(setup[3:6], euler)
-        jac = np.zeros((m, n, 3, 6 + 3 * n))
+        lead, n = p.shape[:-2], p.shape[-2]
+        axes_f = euler_axes(setup[..., 3:6], euler)[..., None, None, :, :]
+        jac = np.zeros((*lead, n, 3, 6 + 3 * n))
         jac[..., :3] = np.eye(3)
-        jac[..., 3:6] = cross_axes(axes_f, p @ rot_f.T)
-        rr = np.einsum("ab,mbc->mac", rot_f, rot_p)  # d y_i / d q_i
+        jac[..., 3:6] = cross_axes(axes_f, np.einsum("...ij,...mnj->...mni", rot_f, p))
+        rr = rot_f[..., None, :, :] @ rot_p  # d y_i / d q_i, (..., m, 3, 3)
         for i in range(n):  # loop over targets, not poses
-            jac[:, i, :, 6 + 3 * i : 9 + 3 * i] = rr
-        return jac.reshape(m, 3 * n, -1)
+            jac[..., i, :, 6 + 3 * i : 9 + 3 * i] = rr
+        return jac.reshape(*lead, 3 * n, -1)
 
     def covariance(self, noise: NoiseModel) -> NDArray[np.float64]:
         return noise.sigmas[1] ** 2 * np.eye(self.size)
@@ -104,7 +107,8 @@ class TargetModel(FramedModel):
         self, values: NDArray[np.float64], platform: tuple[NDArray, NDArray], euler: str
     ) -> NDArray[np.float64]:
         rp, tp = platform
-        return (values.reshape(-1, 3) @ rp.T + tp).ravel()
+        points = values.reshape(*np.shape(values)[:-1], -1, 3)
+        return (points @ rp.T + tp).reshape(np.shape(values))
 
     def group_labels(self) -> dict[str, str]:
         return {"position": "targets"}

@@ -48,6 +48,7 @@ __getattr__, __dir__, __all__ = attach(
         "UNIT_WORDS": "target_files",
         "YamlLimitError": "inputs",
         "active_outputs": "outputs",
+        "load_instrument": "sessions",
         "read_session": "sessions",
         "read_sessions": "sessions",
         "save_setup_dict": "sessions",

@@ -64,6 +64,14 @@ def _write_targets(
 WRITERS: dict[str, Writer] = {"pose": _write_poses, "tool": _write_poses, "targets": _write_targets}
 
 
+def load_instrument(setup: str | os.PathLike[str] | Setup | None, euler: str) -> MeasurementModel:
+    """The instrument of a setup file or setup (None: the full pose in the base frame), its
+    angles in the Euler sequence ``euler``."""
+    if setup is not None and not isinstance(setup, Setup):
+        setup = load_setup(setup)
+    return instrument_for(None if setup is None else setup.in_euler(euler))
+
+
 def read_session(
     data: str | os.PathLike[str],
     setup: Setup | str | os.PathLike[str] | None,
@@ -74,9 +82,7 @@ def read_session(
 ) -> Session:
     """The session of a data file and its setup (a :class:`Setup` or a setup file; None for
     the full pose in the base frame), angles in the Euler sequence ``euler``."""
-    if setup is not None and not isinstance(setup, Setup):
-        setup = load_setup(setup)
-    instrument = instrument_for(None if setup is None else setup.in_euler(euler))
+    instrument = load_instrument(setup, euler)
     try:
         reader = READERS[instrument.name]
     except KeyError:

@@ -25,18 +25,31 @@ def observability_text(data: dict[str, Any], fit: str = "joints,l0") -> str:
     ``data`` is :meth:`hexcal.design.PoseSetAnalysis.to_dict` of the analysis; ``fit`` names the
     parameter groups in the heading.
     """
-    n = data["n_parameters"]
+    gauges = data.get("gauges", 0)
+    n = data["n_parameters"] - gauges
     sv = data["singular_values"]
     noise = data["noise"]
     rank = data["rank"]
     # infinite (σmin = 0) when the dictionary was read back from JSON, where it is null
     condition = float("inf") if data["condition_number"] is None else data["condition_number"]
     verdict = "all identifiable" if rank == n else f"{n - rank} combination(s) NOT identifiable"
+    instrument = data.get("instrument", "full pose in the base frame")
+    jacobian = (
+        "pose-eliminated noise-whitened Jacobian"
+        if gauges or (instrument != "full pose in the base frame" and data["weighted"])
+        else f"{'noise-whitened ' if data['weighted'] else ''}identification Jacobian"
+    )
     lines = [
-        f"Observability of {data['n_poses']} pose(s) for {n} parameters ({fit}); "
-        f"{'noise-whitened ' if data['weighted'] else ''}identification Jacobian, "
-        f"column scaling {data['scaling']}",
-        f"  rank {rank} of {n}: {verdict}",
+        f"Observability of {data['n_poses']} pose(s) for {data['n_parameters']} parameters ({fit}) "
+        f"measured by the {instrument}; {jacobian}, column scaling {data['scaling']}",
+    ]
+    if gauges:
+        lines.append(
+            f"  {gauges} gauge freedoms (no data can determine them; fixed by the convention): "
+            + ", ".join(data.get("gauge_labels", []))
+        )
+    lines += [
+        f"  rank {rank} of {n}{' beyond the gauges' if gauges else ''}: {verdict}",
         f"  singular values: {sv[0]:.4g} ... {sv[-1]:.4g} (condition number {condition:.4g})",
         f"  O1 = {data['O1']:.4g}   geometric mean of the singular values (D-optimality; Borm & Menq 1991)",
         f"  O2 = {data['O2']:.4g}   σmin/σmax, inverse condition number (Driels & Pathre 1990)",
@@ -57,11 +70,11 @@ def observability_text(data: dict[str, Any], fit: str = "joints,l0") -> str:
         f"Predicted mean absolute parameter error: {_fmt(predicted['estimator'])} "
         f"(identify, method {data['method']}); Cramér-Rao bound {_fmt(predicted['bound'])}"
     )
-    lines.append("Predicted standard deviation per parameter (estimator / bound; gains x1e-3):")
+    lines.append("Predicted standard deviation per parameter (estimator / bound; gains and angles x1e-3):")
     cells = []
     for name, std in data["parameters"].items():
         se, sb = std["std_estimator"], std["std_bound"]
-        k = 1e3 if name.startswith("g") else 1.0
+        k = 1e3 if name.startswith("g") or name.split(".")[-1] in ("a", "b", "c") else 1.0
         cell = f"{name:>5} {se * k:.3f}/{sb * k:.3f}" if _finite(se) else f"{name:>5}  not identifiable"
         cells.append(cell)
     for start in range(0, len(cells), 6):

@@ -13,7 +13,6 @@ from collections.abc import Callable
 from typing import Any
 
 from hexcal.report import html_pages, plan, text
-from hexcal.report.instrument import INSTRUMENT_RENDERERS
 from hexcal.report.jsonout import json_text
 
 #: ``(kind, fmt)`` -> renderer of the kind's dictionary.
@@ -42,7 +41,6 @@ TEXT_RENDERERS: dict[str, Callable[..., str]] = {
     "observability": plan.observability_text,
     "select": plan.select_text,
     "claims": plan.claims_text,
-    **INSTRUMENT_RENDERERS,
 }
 
 for _kind, _renderer in TEXT_RENDERERS.items():

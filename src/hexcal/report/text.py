@@ -317,11 +317,9 @@ def validation_text(data: dict[str, Any]) -> str:
     """
     calibrated, nominal = data["calibrated"], data.get("nominal")
     cols = [("calibrated", calibrated)] + ([("nominal", nominal)] if nominal else [])
-    what = data.get("instrument") or "pose"
-    lines = [
-        f"Validation on {calibrated['poses']} held-out observation(s)"
-        + (f" ({what})" if what != "pose" else "")
-    ]
+    what = data.get("instrument") or "full pose in the base frame"
+    where = "" if what == "full pose in the base frame" else f" ({what})"
+    lines = [f"Validation on {calibrated['poses']} held-out pose(s){where}"]
     lines.append(f"    {'':<26}" + "".join(f"{name:>14}" for name, _ in cols))
     rows = [
         ("leg residual RMS (mm)", "leg_rms"),

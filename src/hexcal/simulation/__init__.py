@@ -19,6 +19,8 @@ __getattr__, __dir__, __all__ = attach(
         "ChunkFunction": "runner",
         "Executor": "runner",
         "FixedStrategy": "study",
+        "InstrumentCampaign": "instrument_trials",
+        "instrument_campaign": "instrument_trials",
         "MAX_CHUNK": "runner",
         "MachineBatch": "protocol",
         "PAPER_TABLE1": "paper",

@@ -35,8 +35,10 @@ def identify_trials(
     method: str,
     noise: NoiseModel | None,
     batched: bool = True,
+    mask: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.float64]:
-    """Step 5: identified 42-vectors ``(T, 42)`` of each trial's data (``poses`` of its campaign).
+    """Step 5: identified values ``(T, n)`` of each trial's data (``poses`` of its campaign):
+    the machine parameters of ``mask`` (default joints and ``l0``: the 42-vectors).
 
     NaN rows where the identification failed or the campaign has an unreachable pose.
     ``batched`` (default) solves the trials together when ``method`` is one of
@@ -44,11 +46,12 @@ def identify_trials(
     """
     from hexcal.estimation import BATCH_METHODS, estimate_batch  # deferred, as in identify_or_nan
 
+    mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
     reachable = ~np.any(np.isnan(campaign.reached[:, poses]), axis=(1, 2))
-    out = np.full((len(reachable), N_BASE_PARAMETERS), np.nan)
+    out = np.full((len(reachable), int(mask.sum())), np.nan)
     if not batched or method not in BATCH_METHODS:
         for t in np.flatnonzero(reachable):
-            out[t] = identify_or_nan(start, campaign.dataset(t, poses), method, noise)
+            out[t] = identify_or_nan(start, campaign.dataset(t, poses), method, noise, mask)
         return out
     ok = np.flatnonzero(reachable)
     if ok.size:
@@ -58,7 +61,7 @@ def identify_trials(
                 campaign.readings[ok][:, poses],
                 campaign.measured[ok][:, poses],
                 method,
-                select_parameters(),
+                mask,
                 noise,
             )
         except IdentificationError:  # too few poses: every trial fails, as one at a time
@@ -68,15 +71,16 @@ def identify_trials(
 
 
 def identify_or_nan(
-    start: Geometry, data: Measurements, method: str, noise: NoiseModel | None
+    start: Geometry, data: Measurements, method: str, noise: NoiseModel | None, mask: NDArray | None = None
 ) -> NDArray[np.float64]:
-    """The identified 42-vector of one data set, NaN if the identification failed."""
+    """The identified values (default the 42-vector) of one data set, NaN if it failed."""
     from hexcal.calibration import estimate  # deferred: importing the protocol needs no scipy
 
+    mask = select_parameters() if mask is None else mask
     try:
-        result = estimate(start, data, method=method, mask=select_parameters(), noise=noise, with_bound=False)
+        result = estimate(start, data, method=method, mask=mask, noise=noise, with_bound=False)
     except IdentificationError:
-        return np.full(N_BASE_PARAMETERS, np.nan)
+        return np.full(int(np.sum(mask)), np.nan)
     return result.values
 
 

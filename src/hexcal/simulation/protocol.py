@@ -21,7 +21,7 @@ a trial's numbers do not depend on how trials are grouped or where they run.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -37,6 +37,8 @@ from hexcal.core import (
     leg_vectors_from_arrays,
     pose_errors,
 )
+from hexcal.core.legs import LegModel, LinearLegs
+from hexcal.core.parameters import JOINT_NAMES, PARAMETER_NAMES
 from hexcal.errors import SimulationError
 from hexcal.instruments import Measurements
 from hexcal.instruments.base import MeasurementModel, Session
@@ -88,12 +90,15 @@ class TrialSeeds:
 
 @dataclass(frozen=True)
 class MachineBatch:
-    """Kinematic parameters of ``T`` machines as arrays (one per trial).
+    """Kinematic parameters of ``T`` machines as arrays (one per trial), with one leg model.
 
     Attributes
     ----------
     base_joints, platform_joints : ndarray, shape (T, 6, 3)
-    initial_leg_lengths, leg_gains : ndarray, shape (T, 6)
+    legs : ndarray, shape (T, p)
+        Each machine's leg-model block (``l0``, gains, the model's terms).
+    leg_model : LegModel
+        How a reading becomes a length (:mod:`hexcal.core.legs`).
 
     Examples
     --------
@@ -105,19 +110,37 @@ class MachineBatch:
 
     base_joints: NDArray[np.float64]
     platform_joints: NDArray[np.float64]
-    initial_leg_lengths: NDArray[np.float64]
-    leg_gains: NDArray[np.float64]
+    legs: NDArray[np.float64]
+    leg_model: LegModel = field(default_factory=LinearLegs)
 
     @classmethod
     def from_vectors(cls, vectors: NDArray[np.float64], gains: NDArray[np.float64]) -> MachineBatch:
-        """Machines from 42-vectors ``(T, 42)`` and leg gains ``(6,)`` or ``(T, 6)``."""
+        """Linear-leg machines from 42-vectors ``(T, 42)`` (joints and ``l0``, the seed paper's
+        parameters) and leg gains ``(6,)`` or ``(T, 6)``."""
         t = vectors.shape[0]
+        named = dict(zip(PARAMETER_NAMES, range(len(PARAMETER_NAMES)), strict=False))
+        l0 = vectors[:, [named[f"l0_{i}"] for i in range(1, 7)]]
+        joints = vectors[:, [named[n] for n in JOINT_NAMES]]
         return cls(
-            vectors[:, :18].reshape(t, 6, 3),
-            vectors[:, 18:36].reshape(t, 6, 3),
-            vectors[:, 36:42],
-            np.broadcast_to(gains, (t, 6)),
+            joints[:, :18].reshape(t, 6, 3),
+            joints[:, 18:].reshape(t, 6, 3),
+            np.concatenate([l0, np.broadcast_to(gains, (t, 6))], axis=1),
         )
+
+    @classmethod
+    def from_geometry(cls, geometry: Geometry, vectors: NDArray[np.float64] | None = None) -> MachineBatch:
+        """Machines of ``geometry``'s leg model from machine vectors ``(T, 36 + p)`` (the order of
+        :meth:`Geometry.machine_names`; default the geometry itself, ``T = 1``)."""
+        vectors = geometry.machine_vector()[None] if vectors is None else np.asarray(vectors, dtype=float)
+        params = geometry.machine_parameters()
+        joints, legs = vectors[:, params.span("joints")], vectors[:, params.span("legs")]
+        t = len(vectors)
+        return cls(joints[:, :18].reshape(t, 6, 3), joints[:, 18:].reshape(t, 6, 3), legs, geometry.leg_model)
+
+    @property
+    def leg_gains(self) -> NDArray[np.float64]:
+        """Each machine's gains ``(T, 6)`` (the leg model's first-order term)."""
+        return self.leg_model.thetas(self.legs)[..., 1]
 
     def lengths(self, poses: NDArray[np.float64], euler: str) -> NDArray[np.float64]:
         """Leg lengths of poses ``(T, n, 6)`` on each trial's machine, ``(T, n, 6)`` mm."""
@@ -128,7 +151,7 @@ class MachineBatch:
 
     def commands(self, targets: NDArray[np.float64], euler: str) -> NDArray[np.float64]:
         """Leg readings ``(T, n, 6)`` that bring these machines to ``targets`` ``(T, n, 6)``."""
-        return (self.lengths(targets, euler) - self.initial_leg_lengths[:, None]) / self.leg_gains[:, None]
+        return self.leg_model.readings(self.legs[:, None], self.lengths(targets, euler))
 
     def reach(
         self,
@@ -136,13 +159,17 @@ class MachineBatch:
         guess: NDArray[np.float64],
         euler: str,
         strict: bool = True,
+        sensor: NDArray[np.float64] | None = None,
     ) -> NDArray[np.float64]:
-        """Poses ``(T, n, 6)`` the machines reach for readings ``(T, n, 6)`` (forward kinematics).
+        """Poses ``(T, n, 6)`` the machines reach for readings ``(T, n, 6)`` (forward kinematics),
+        their legs off by the sensor errors ``sensor`` (mm, same shape) when given.
 
         Raises :class:`~hexcal.errors.SimulationError` if a pose is unreachable, unless
         ``strict`` is false: then its row is NaN.
         """
-        lengths = self.initial_leg_lengths[:, None] + self.leg_gains[:, None] * readings
+        lengths = self.leg_model.lengths(self.legs[:, None], readings)
+        if sensor is not None:
+            lengths = lengths + sensor
         result = forward_kinematics_from_arrays(
             self.base_joints[:, None], self.platform_joints[:, None], lengths, guess, euler
         )
@@ -227,9 +254,7 @@ def simulate_campaigns(
         Raise :class:`~hexcal.errors.SimulationError` on an unreachable pose (else NaN).
     """
     readings = leg_readings(nominal, inverse_kinematics(nominal, commanded))
-    reached = machines.reach(
-        readings + leg_noise / machines.leg_gains[:, None], commanded, nominal.euler, strict
-    )
+    reached = machines.reach(readings, commanded, nominal.euler, strict, sensor=leg_noise)
     return CampaignData(readings, reached, reached + pose_noise)
 
 
@@ -318,12 +343,10 @@ def simulate_session(
     noise = NoiseModel() if noise is None else noise
     rng = np.random.default_rng(rng)
     poses = np.asarray(poses, dtype=float).reshape(-1, 6)
-    machine = MachineBatch.from_vectors(true.to_vector()[None], true.leg_gains)
+    machine = MachineBatch.from_geometry(true)
     sensor = noise.leg_errors(rng, (len(poses),))
     readings = leg_readings(nominal, inverse_kinematics(nominal, poses))
-    reached = machine.reach(
-        readings[None] + sensor[None] / machine.leg_gains[:, None], poses[None], nominal.euler
-    )
+    reached = machine.reach(readings[None], poses[None], nominal.euler, sensor=sensor[None])
     data = instrument.simulate(
         instrument.parameters().values,
         reached[0],
@@ -342,23 +365,28 @@ def validate(
     machines: MachineBatch,
     targets: NDArray[np.float64],
     vectors: NDArray[np.float64] | None = None,
+    identified: MachineBatch | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Step 6: position (mm) and orientation (rad) errors ``(T, v)`` at the targets.
 
-    The controller commands targets ``(T, v, 6)`` with the nominal parameters (``vectors``
-    None) or with the identified 42-vectors ``(T, 42)`` (and the nominal leg gains); the
-    true ``machines`` go where their forward kinematics says. NaN rows for failed
-    identifications (NaN vectors) and for targets the true machine cannot reach.
+    The controller commands targets ``(T, v, 6)`` with the nominal parameters, with the
+    identified 42-vectors ``vectors`` ``(T, 42)`` (and the nominal leg gains), or with the
+    ``identified`` machines; the true ``machines`` go where their forward kinematics says.
+    NaN rows for failed identifications (NaN vectors) and for targets the true machine cannot
+    reach.
     """
     euler = nominal.euler
-    if vectors is None:
-        commands = leg_readings(nominal, inverse_kinematics(nominal, targets))
-        ok = np.ones(len(targets), dtype=bool)
-    else:
+    if vectors is not None:
         ok = ~np.isnan(vectors[:, 0])
         identified = MachineBatch.from_vectors(
             np.where(ok[:, None], vectors, nominal.to_vector()), nominal.leg_gains
         )
+    elif identified is not None:
+        ok = np.all(np.isfinite(identified.legs), axis=1)
+    if identified is None:
+        commands = leg_readings(nominal, inverse_kinematics(nominal, targets))
+        ok = np.ones(len(targets), dtype=bool)
+    else:
         commands = identified.commands(targets, euler)
     reached = machines.reach(commands, targets, euler, strict=False)
     position, orientation = pose_errors(targets, reached, euler)

@@ -23,7 +23,8 @@ from numpy.typing import NDArray
 
 from hexcal.core import Geometry, NoiseModel, random_poses, workspace_corners
 from hexcal.simulation.identify import campaign_bounds, identify_trials
-from hexcal.simulation.protocol import TrialSeeds, simulate_campaigns, true_machines, validate
+from hexcal.simulation.instrument_trials import InstrumentCampaign, instrument_cell
+from hexcal.simulation.protocol import MachineBatch, TrialSeeds, simulate_campaigns, true_machines, validate
 from hexcal.simulation.runner import Executor, Progress, map_trials
 
 #: Pose strategies: a function ``(nominal, n, rng) -> (n, 6)`` poses for one trial
@@ -144,6 +145,8 @@ class StudyDefinition:
     noises: tuple[tuple[str, NoiseModel], ...]
     n_validation: int
     parameter_error: float
+    campaign: InstrumentCampaign | None = None
+    fit: str = "joints,l0"
 
     def cells(self) -> list[tuple[int, str, int, int, str, NoiseModel, str]]:
         """``(strategy index, name, poses, noise index, label, noise, method)`` of every cell, in order."""
@@ -170,15 +173,31 @@ def study_trials(d: StudyDefinition, indices: NDArray[np.intp]) -> dict[str, NDA
                 # one generator per trial and cell, independent of the order of the cells
                 rngs = [d.seeds.generator(t, s_index, n, z_index) for t in indices]
                 commanded = np.stack([strategy(nominal, n, r) for r in rngs])
+                if d.campaign is not None:  # an instrument other than the full pose
+                    trues = [d.true or nominal.with_vector(v) for v in true_vectors]
+                    for method in d.methods:
+                        cell = instrument_cell(
+                            nominal, trues, d.campaign, commanded, noise, rngs, method, targets
+                        )
+                        out.update({f"{k}:{key}": value for key, value in cell.items()})
+                        k += 1
+                    continue
                 leg_noise = np.stack([noise.leg_errors(r, (n,)) for r in rngs])
                 pose_noise = np.stack([noise.pose_errors(r, (n,)) for r in rngs])
                 campaign = simulate_campaigns(
                     nominal, machines, commanded, leg_noise, pose_noise, strict=False
                 )
                 bounds = campaign_bounds(nominal, d.true, true_vectors, campaign.reached, noise)
+                params = nominal.machine_parameters(d.fit)
+                lengths = np.isin(params.names, params.groups["joints"] + params.groups["l0"])
                 for method in d.methods:
-                    vectors = identify_trials(nominal, campaign, slice(None), method, noise)
-                    pos, ang = validate(nominal, machines, targets, vectors)
+                    values = identify_trials(nominal, campaign, slice(None), method, noise, mask=params.vary)
+                    full = np.tile(params.values, (len(indices), 1))
+                    full[:, params.vary] = values
+                    full[np.isnan(values).any(axis=1)] = np.nan
+                    identified = MachineBatch.from_geometry(nominal, full)
+                    vectors = full[:, lengths]
+                    pos, ang = validate(nominal, machines, targets, identified=identified)
                     out[f"{k}:errors"] = np.mean(np.abs(vectors - true_vectors), axis=1)
                     out[f"{k}:bounds"] = np.full(len(indices), np.nan) if bounds is None else bounds
                     out[f"{k}:position_rms"] = np.sqrt(np.mean(pos**2, axis=1))
@@ -203,6 +222,8 @@ def run_study(
     *,
     executor: Executor | None = None,
     chunk_size: int | None = None,
+    campaign: InstrumentCampaign | None = None,
+    fit: str = "joints,l0",
 ) -> StudyResult:
     """Run a study (see the module docstring).
 
@@ -237,6 +258,13 @@ def run_study(
         Trials per chunk (default by the number of trials only, so that ``jobs`` and the
         executor do not change the numbers); it changes only the last digits of maximum
         likelihood (about 1e-11 mm), whose trials of a chunk are solved together.
+    fit : str
+        Machine parameter groups identified (``joints,l0,gains`` fits the gains too); the
+        reported error is that of the joints and ``l0``.
+    campaign : InstrumentCampaign, optional
+        The instrument that measures (default the full pose in the base frame): its true
+        setup, the start an identification begins from, the machine groups fitted
+        (:mod:`hexcal.simulation.instrument_trials`).
 
     Returns
     -------
@@ -264,6 +292,8 @@ def run_study(
         tuple(noises.items()),
         n_validation,
         parameter_error,
+        campaign,
+        fit,
     )
     cells = definition.cells()
     schedule = {"jobs": jobs, "executor": executor, "chunk_size": chunk_size, "progress": progress}

@@ -1,0 +1,178 @@
+"""Trials of campaigns measured by any instrument: the protocol's steps 2 to 6 for a session.
+
+For an instrument other than the full pose (targets, a tool, an instrument in its own frame)
+each trial simulates the session the instrument records at the commanded poses
+(:func:`hexcal.simulation.protocol.simulate_session`: the true machine, the true setup, the
+noise), identifies it from the start the user would have (an unknown frame ``auto``, nominal
+targets or tool) with :func:`hexcal.calibration.estimate`, and measures:
+
+- the mean absolute error of the machine's joints and initial lengths against the truth
+  expressed under the identification's gauge convention (the frames no data can fix are
+  those of the convention for both);
+- its Cramér–Rao bound at the truth (gauge-fixed the same way);
+- the validation pose error: the controller commands random workspace poses with the
+  identified parameters and the real machine (in the convention's frames) goes where its
+  forward kinematics says, noise-free, as for the full pose.
+
+A failed identification or an unreachable pose gives NaN for the trial. Trials of a chunk are
+identified one at a time; the seeding is per trial, so the numbers do not depend on the chunks
+or the executor.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hexcal.core import Geometry, NoiseModel
+from hexcal.errors import HexcalError
+from hexcal.instruments.base import MeasurementModel, Session
+from hexcal.simulation.protocol import MachineBatch, simulate_session, validate
+
+#: Length parameters whose mean absolute error a study reports (as for the full pose).
+_LENGTH_GROUPS = ("joints", "l0")
+
+
+@dataclass(frozen=True)
+class InstrumentCampaign:
+    """The instrument of a study: the ``true`` setup that records the data (frame known) and the
+    ``start`` the identification begins from (its frame ``auto``, nominal targets or tool),
+    the machine groups ``fit`` and the simulation ``options`` (a target ``missing_rate``)."""
+
+    true: MeasurementModel
+    start: MeasurementModel
+    fit: str = "joints,l0"
+    options: tuple[tuple[str, Any], ...] = ()
+
+
+def _length_rows(names: tuple[str, ...], geometry: Geometry) -> NDArray[np.bool_]:
+    groups = geometry.machine_parameters().groups
+    lengths = {n for g in _LENGTH_GROUPS for n in groups[g]}
+    return np.array([n in lengths for n in names])
+
+
+def instrument_trial(
+    nominal: Geometry,
+    true: Geometry,
+    campaign: InstrumentCampaign,
+    commanded: NDArray[np.float64],
+    noise: NoiseModel,
+    rng: np.random.Generator,
+    method: str,
+    targets: NDArray[np.float64],
+) -> tuple[float, float, NDArray[np.float64], NDArray[np.float64]]:
+    """One trial: ``(error, bound, position errors, orientation errors)`` (NaN when it failed)."""
+    from hexcal.calibration import estimate
+    from hexcal.estimation import Problem, apply_convention, cramer_rao, gauge_freedoms
+
+    nan = (float("nan"), float("nan"), np.full(len(targets), np.nan), np.full(len(targets), np.nan))
+    try:
+        session = simulate_session(
+            nominal, true, campaign.true, commanded, noise, rng, **dict(campaign.options)
+        )
+        fit = estimate(
+            nominal,
+            Session(session.data, campaign.start),
+            method,
+            noise=noise,
+            fit=campaign.fit,
+            with_bound=False,
+            verdict=False,
+            diagnose=False,
+        )
+    except (HexcalError, ValueError, np.linalg.LinAlgError):
+        return nan
+    calibrated = fit.instruments[0]
+    problem = Problem(fit.geometry, Session(session.data, calibrated), fit=campaign.fit)
+    full_true = np.array(problem.full0)
+    full_true[problem.machine] = true.machine_vector()
+    full_true[problem.parts[0].block] = campaign.true.parameters().values
+    gauge = gauge_freedoms(problem, full_true)
+    truth = apply_convention(problem, full_true, gauge) if gauge.size else full_true
+    got = problem.full0[problem.mask]
+    names = problem.names
+    rows = _length_rows(names, nominal)
+    error = float(np.mean(np.abs(got - truth[problem.mask])[rows]))
+    try:
+        cov = cramer_rao(problem, noise, truth)
+        bound = float(np.sqrt(2 / np.pi) * np.mean(np.sqrt(np.clip(np.diag(cov), 0, None))[rows]))
+    except (HexcalError, ValueError, np.linalg.LinAlgError):
+        bound = float("nan")
+    if gauge.size:  # the frames that fit the validation poses best, as a re-registration would
+        truth = aligned_truth(problem, truth, targets)
+    real = MachineBatch.from_geometry(problem.geometry(truth))
+    identified = MachineBatch.from_geometry(fit.geometry)
+    position, orientation = validate(nominal, real, targets[None], identified=identified)
+    return error, bound, position[0], orientation[0]
+
+
+def aligned_truth(
+    problem: Any, truth: NDArray[np.float64], targets: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The truth moved along the gauge freedoms (rigid motions of the base and platform frames,
+    which no measurement distinguishes) so that its pose errors against the identified machine
+    at ``targets`` are smallest (first order, angles weighted by the platform radius): the
+    validation error then describes the calibration, not the arbitrary frames."""
+    from hexcal.calibration.accuracy import pose_error_map, rotation_vector_map
+    from hexcal.estimation import gauge_freedoms
+
+    gauge = gauge_freedoms(problem, truth)
+    names = problem.names
+    rows = np.isin(names, problem.start.machine_names())
+    mask = np.isin(problem.start.machine_names(), names)
+    e = pose_error_map(problem.start, targets, mask)  # (v, 6, n_machine)
+    w = rotation_vector_map(problem.start, targets)
+    radius = float(np.max(np.linalg.norm(problem.start.platform_joints[:, :2], axis=1)))
+    e = np.concatenate([e[:, :3], radius * np.einsum("tij,tjk->tik", w, e[:, 3:])], axis=1).reshape(
+        -1, mask.sum()
+    )
+    delta = (truth - problem.full0)[problem.mask][rows]
+    g = (gauge.generators * problem.scale[:, None])[rows]
+    a, *_ = np.linalg.lstsq(e @ g, e @ delta, rcond=None)
+    moved = np.array(truth)
+    moved[problem.mask] = truth[problem.mask] - (gauge.generators * problem.scale[:, None]) @ a
+    return moved
+
+
+def instrument_cell(
+    nominal: Geometry,
+    true_machines: list[Geometry],
+    campaign: InstrumentCampaign,
+    commanded: NDArray[np.float64],
+    noise: NoiseModel,
+    rngs: list[np.random.Generator],
+    method: str,
+    targets: NDArray[np.float64],
+) -> dict[str, NDArray[np.float64]]:
+    """The trials of one cell of a study measured by ``campaign``'s instrument."""
+    out = [
+        instrument_trial(nominal, true, campaign, commanded[k], noise, rngs[k], method, targets[k])
+        for k, true in enumerate(true_machines)
+    ]
+    errors, bounds, pos, ang = (np.array(v) for v in zip(*out, strict=True))
+    return {
+        "errors": errors,
+        "bounds": bounds,
+        "position_rms": np.sqrt(np.mean(pos**2, axis=1)),
+        "orientation_rms": np.sqrt(np.mean(ang**2, axis=1)),
+    }
+
+
+def instrument_campaign(
+    instrument: MeasurementModel, fit: str = "joints,l0", **options: Any
+) -> InstrumentCampaign | None:
+    """The campaign a study simulates for ``instrument`` (its true setup): identified from the
+    start a user would have (:meth:`MeasurementModel.as_start`: an unknown frame ``auto``),
+    with the simulation ``options``; None for the full pose in the base frame without options
+    (the batched path of :mod:`hexcal.simulation.study`)."""
+    from hexcal.errors import SimulationError
+
+    if instrument.unregistered:
+        raise SimulationError("a study needs the true instrument frame (not auto): it is the simulated truth")
+    options = {k: v for k, v in options.items() if v}
+    if instrument.determines_pose and instrument.name == "pose" and not options:
+        return None
+    return InstrumentCampaign(instrument, instrument.as_start(), fit, tuple(options.items()))
