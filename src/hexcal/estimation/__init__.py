@@ -13,6 +13,7 @@ __getattr__, __dir__, __all__ = attach(
     {
         "BATCH_METHODS": "batched",
         "BatchResult": "batched",
+        "Stack": "stacked",
         "CONVENTION": "gauge",
         "DEFAULT_ALPHA": "outliers",
         "DEFAULT_ESTIMATOR": "registry",
@@ -45,6 +46,8 @@ __getattr__, __dir__, __all__ = attach(
         "cramer_rao": "uncertainty",
         "cramer_rao_covariance": "uncertainty",
         "estimate_batch": "batched",
+        "estimate_stack": "batched",
+        "full_pose_stack": "batched",
         "estimate_noise": "noise_estimation",
         "finish_result": "covariance",
         "fisher_information": "uncertainty",

@@ -1,7 +1,12 @@
 """Kernels of batched identification (:mod:`hexcal.estimation.batched`): the leg equations on
-``(T, 6, m)`` stacks, a Cholesky solver vectorised over stacks of small systems, the
-Levenberg–Marquardt bookkeeping shared by the batched estimators (damping, accept/reject with
-a rounding allowance) and the solver of the leg-separable ``paper`` and ``length`` problems.
+``(T, 6, m)`` stacks for any leg model, a Cholesky solver vectorised over stacks of small
+systems, the Levenberg–Marquardt bookkeeping shared by the batched estimators (damping,
+accept/reject with a rounding allowance) and the solver of the leg-separable ``paper`` and
+``length`` problems.
+
+Each leg's residuals depend only on that leg's parameters: its base and platform joints and its
+leg-model parameters, the columns :func:`hexcal.core.machine.leg_columns` of the machine's
+parameters (``L`` of them per leg: 8 for linear legs).
 
 Imports :mod:`hexcal.core` only.
 """
@@ -12,8 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.core.conventions import rotation_matrices
+from hexcal.core.legs import LegModel
 from hexcal.core.linalg import RANK_RTOL
-from hexcal.core.parameters import PARAMETER_SCALE
 
 #: Status of a trial: converged; no convergence within ``max_iter``; rank-deficient start;
 #: non-finite input or iterate.
@@ -25,10 +30,6 @@ STATUS_MESSAGES = {
     STATUS_NONFINITE: "non-finite measurements, start values or iterate",
 }
 
-#: Parameter index of leg ``i``'s block columns ``(u_i, s_i, l0_i, g_i)``, shape (6, 8).
-LEG_INDEX = np.array(
-    [[3 * i, 3 * i + 1, 3 * i + 2, 18 + 3 * i, 19 + 3 * i, 20 + 3 * i, 36 + i, 42 + i] for i in range(6)]
-)
 #: Relative rounding allowed in a cost comparison, and the damping below which a step counts
 #: as a Gauss–Newton step for the convergence test.
 COST_ROUNDING, GN_LAMBDA, LAMBDA0 = 1e-10, 1e-2, 1e-6
@@ -41,27 +42,30 @@ def leg_blocks(
     pos: NDArray[np.float64],
     readings: NDArray[np.float64],
     variant: str,
+    model: LegModel,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Leg residuals and their per-leg parameter Jacobian, batched over trials.
 
     Parameters
     ----------
-    params : ndarray, shape (T, 6, 8)
-        Each leg's parameters ``(u_i, s_i, l0_i, g_i)`` (``values[:, LEG_INDEX]``).
+    params : ndarray, shape (T, 6, L)
+        Each leg's parameters: base joint, platform joint, then its leg-model parameters
+        (``values[:, leg_columns(model)]``).
     rot, pos : ndarray, shape (T, m, 3, 3) and (T, m, 3)
         Rotation matrices and positions of the poses.
     readings : ndarray, shape (T, 6, m)
-        Leg readings, leg-major, mm.
+        Leg readings, leg-major.
     variant : {"length", "paper"}
+    model : LegModel
 
     Returns
     -------
     r : ndarray, shape (T, 6, m)
         Residuals (mm, or mm² for ``paper``).
-    jac : ndarray, shape (T, 6, m, 8)
-        ``d r[t, i, j] / d (u_i, s_i, l0_i, g_i)`` in parameter units.
+    jac : ndarray, shape (T, 6, m, L)
+        ``d r[t, i, j] / d params[t, i]`` in parameter units.
     """
-    p = params[..., None]  # (T, 6, 8, 1): broadcasts against poses (T, 1, m)
+    p = params[..., None]  # (T, 6, L, 1): broadcasts against poses (T, 1, m)
     r_ = rot[:, None]  # (T, 1, m, 3, 3)
     # v[t, i, j] = R[t, j] s[t, i] + o[t, j] - u[t, i], by components
     v = [
@@ -72,23 +76,24 @@ def leg_blocks(
         for a in range(3)
     ]
     sq = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-    model = p[:, :, 6] + p[:, :, 7] * readings
-    jac = np.empty((*sq.shape, 8))
+    theta = params[:, :, None, 6:]  # (T, 6, 1, q)
+    lengths = model.length(theta, readings)
+    dmodel = model.length_jacobian(theta, readings)  # (T, 6, m, q)
+    jac = np.empty((*sq.shape, params.shape[-1]))
     if variant == "paper":
-        r = sq - model**2
+        r = sq - lengths**2
         d = [2.0 * c for c in v]
-        jac[..., 6] = -2.0 * model
+        jac[..., 6:] = (-2.0 * lengths)[..., None] * dmodel
     else:
         length = np.sqrt(sq)
-        r = length - model
+        r = length - lengths
         inv = 1.0 / length
         d = [c * inv for c in v]
-        jac[..., 6] = -1.0
+        jac[..., 6:] = -dmodel
     for a in range(3):
         jac[..., a] = -d[a]
         # (d r / d v) R_j: column b of the rotation
         jac[..., 3 + a] = d[0] * r_[..., 0, a] + d[1] * r_[..., 1, a] + d[2] * r_[..., 2, a]
-    jac[..., 7] = jac[..., 6] * readings
     return r, jac
 
 
@@ -206,18 +211,24 @@ def solve_legs(
     alive: NDArray[np.bool_],
     xtol: float,
     max_iter: int,
+    model: LegModel,
+    cols: NDArray[np.intp],
+    scales: NDArray[np.float64],
 ) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray]:
     """Levenberg–Marquardt on the ``(T, 6)`` stack of per-leg problems.
 
-    Returns ``(full, status, iterations, cost, rank)``; ``alive`` marks trials to solve.
+    ``full0`` ``(T, P)`` machine start values, ``mask`` ``(P,)`` the varied ones, ``cols`` the
+    leg columns ``(6, L)`` and ``scales`` ``(P,)`` the solver scales. Returns ``(full, status,
+    iterations, cost, rank)``; ``alive`` marks trials to solve.
     """
     t = full0.shape[0]
-    free = mask[LEG_INDEX]
-    col = PARAMETER_SCALE[LEG_INDEX] * free  # solver units; 0 for fixed parameters
-    eye = np.eye(8) * np.where(free, 0.0, 1.0)[:, None, :]  # fixed parameters: identity rows
-    p0 = full0[:, LEG_INDEX]
+    width = cols.shape[1]
+    free = mask[cols]
+    col = scales[cols] * free  # solver units; 0 for fixed parameters
+    eye = np.eye(width) * np.where(free, 0.0, 1.0)[:, None, :]  # fixed parameters: identity rows
+    p0 = full0[:, cols]
     p = p0.copy()
-    r, jac = leg_blocks(p, rot, pos, readings, variant)
+    r, jac = leg_blocks(p, rot, pos, readings, variant, model)
     js = jac * col[:, None, :]
     h = np.matmul(js.transpose(0, 1, 3, 2), js) + eye
     rank = block_rank(h, free, js)
@@ -228,19 +239,19 @@ def solve_legs(
     iterations = np.zeros((t, 6), dtype=int)
     lam, nu = np.full((t, 6), LAMBDA0), np.full((t, 6), 2.0)
     cost = 0.5 * np.sum(r**2, axis=2)
-    size = np.abs(p0[..., 6:7]) + np.abs(p0[..., 7:8] * readings)
+    size = np.abs(model.length(p0[:, :, None, 6:], readings))
     floor = rounding_floor(np.abs(r) + (size**2 if variant == "paper" else size), (2,))
     unit = np.where(col > 0, col, 1.0)
     for _ in range(max_iter):
         if not active.any():
             break
         g = np.einsum("tijk,tij->tik", js, r)
-        g[~active], h[~active] = 0.0, np.eye(8)
+        g[~active], h[~active] = 0.0, np.eye(width)
         dx = -cholesky_solve(damped(h, lam), g)
         x = (p - p0) / unit * free
         small = np.linalg.norm(dx, axis=2) <= xtol * (xtol + np.linalg.norm(x, axis=2))
         p_new = p + dx * col
-        r_new, jac_new = leg_blocks(p_new, rot, pos, readings, variant)
+        r_new, jac_new = leg_blocks(p_new, rot, pos, readings, variant, model)
         cost_new = 0.5 * np.sum(r_new**2, axis=2)
         predicted = -np.einsum("tik,tik->ti", g, dx) - 0.5 * np.einsum("tik,tikl,til->ti", dx, h, dx)
         gain = (cost - cost_new) / np.where(predicted > 0, predicted, np.inf)
@@ -256,7 +267,7 @@ def solve_legs(
         active &= ~small
         h = np.matmul(js.transpose(0, 1, 3, 2), js) + eye
     full = full0.copy()
-    full[:, LEG_INDEX] = p
+    full[:, cols] = p
     status[(status == STATUS_MAX_ITER) & done.all(axis=1)] = STATUS_CONVERGED
     status[(status == STATUS_CONVERGED) & ~np.all(np.isfinite(full), axis=1)] = STATUS_NONFINITE
     return full, status, iterations.max(axis=1), cost.sum(axis=1), rank

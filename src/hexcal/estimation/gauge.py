@@ -48,12 +48,10 @@ _TOUCH_TOL = 1e-9
 
 
 def _rotation(rotvec: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Rotation matrix of a rotation vector (Rodrigues)."""
-    theta = float(np.linalg.norm(rotvec))
-    k = np.array([[0, -rotvec[2], rotvec[1]], [rotvec[2], 0, -rotvec[0]], [-rotvec[1], rotvec[0], 0]])
-    if theta < 1e-12:
-        return np.eye(3) + k
-    return np.eye(3) + np.sin(theta) / theta * k + (1 - np.cos(theta)) / theta**2 * k @ k
+    """Rotation matrix of a rotation vector."""
+    from scipy.spatial.transform import Rotation  # deferred: slow to import
+
+    return Rotation.from_rotvec(rotvec).as_matrix()
 
 
 def transform_parameters(
@@ -65,21 +63,25 @@ def transform_parameters(
     """All parameter values in new base (``p' = R_b p + t_b``) and platform coordinates, or
     None when an instrument is tied to the base frame (no such change exists).
 
-    Predictions do not change (the poses move with the frames); the leg model stays.
+    Batch-first: ``full`` ``(..., N)`` with rotations ``(..., 3, 3)`` and translations
+    ``(..., 3)`` that broadcast. Predictions do not change (the poses move with the frames);
+    the leg model stays.
     """
     eye = (np.eye(3), np.zeros(3))
     (rb, tb), (rp, tp) = base or eye, platform or eye
+    full = np.asarray(full, dtype=float)
     out = np.array(full)
-    joints = full[problem.joints]
-    u = (joints[:18].reshape(6, 3) @ rb.T + tb).ravel()
-    s = (joints[18:36].reshape(6, 3) @ rp.T + tp).ravel()
-    out[problem.joints] = np.concatenate([u, s])
+    joints = full[..., problem.joints]
+    lead = joints.shape[:-1]
+    u = joints[..., :18].reshape(*lead, 6, 3) @ np.swapaxes(rb, -1, -2) + np.asarray(tb)[..., None, :]
+    s = joints[..., 18:36].reshape(*lead, 6, 3) @ np.swapaxes(rp, -1, -2) + np.asarray(tp)[..., None, :]
+    out[..., problem.joints] = np.concatenate([u.reshape(*lead, 18), s.reshape(*lead, 18)], axis=-1)
     for part in problem.parts:
         if part.block.stop > part.block.start:
-            moved = part.instrument.transform_setup(full[part.block], (rb, tb), (rp, tp), problem.euler)
+            moved = part.instrument.transform_setup(full[..., part.block], (rb, tb), (rp, tp), problem.euler)
             if moved is None:
                 return None
-            out[part.block] = moved
+            out[..., part.block] = moved
     return out
 
 
@@ -123,7 +125,20 @@ class Gauge:
 def gauge_freedoms(problem: Problem, full: NDArray[np.float64]) -> Gauge:
     """Detect the base and platform gauges of ``problem`` at ``full`` (none where an
     instrument is tied to the base frame, or a motion touches a parameter held fixed)."""
+    labels, generators = gauge_generators(problem, np.asarray(full, dtype=float)[None])
+    metric = np.zeros(len(problem.mask))
+    metric[problem.joints] = 1.0
+    return Gauge(generators[0], labels, metric[problem.mask] * problem.scale**2)
+
+
+def gauge_generators(
+    problem: Problem, full: NDArray[np.float64]
+) -> tuple[tuple[str, ...], NDArray[np.float64]]:
+    """The gauge freedoms of ``problem``'s layout at the values of ``T`` trials ``(T, N)``: their
+    labels and each trial's generators ``(T, n_free, g)`` in solver units (derivatives of
+    :func:`transform_parameters`, kept where they touch only varied parameters)."""
     mask, scale = problem.mask, problem.scale
+    t = len(full)
     cols, labels = [], []
     # a frame is free only where an instrument's own quantities move with it
     moving = any(problem.free_in(part.block).any() for part in problem.parts)
@@ -135,13 +150,12 @@ def gauge_freedoms(problem: Problem, full: NDArray[np.float64]) -> Gauge:
         if hi is None or lo is None:
             break
         diff = (hi - lo) / (2 * _STEP)
-        if np.linalg.norm(diff[~mask]) <= _TOUCH_TOL * np.linalg.norm(diff):
-            cols.append(diff[mask] / scale)
+        touch = np.linalg.norm(diff[:, ~mask], axis=1) <= _TOUCH_TOL * np.linalg.norm(diff, axis=1)
+        if touch.all():
+            cols.append(diff[:, mask] / scale)
             labels.append(label)
-    metric = np.zeros(len(mask))
-    metric[problem.joints] = 1.0
-    gen = np.array(cols).T if cols else np.zeros((int(mask.sum()), 0))
-    return Gauge(gen, tuple(labels), metric[mask] * scale**2)
+    gen = np.stack(cols, axis=-1) if cols else np.zeros((t, int(mask.sum()), 0))
+    return tuple(labels), gen
 
 
 def complement_basis(gauge: Gauge) -> NDArray[np.float64]:
@@ -162,20 +176,34 @@ def gauge_projector(gauge: Gauge) -> NDArray[np.float64]:
     return np.eye(n) - g @ np.linalg.solve(g.T @ mg, mg.T)
 
 
-def _kabsch(points: NDArray[np.float64], nominal: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-    """Rigid motion ``(R, t)`` with ``R points + t`` closest to ``nominal``."""
-    from scipy.spatial.transform import Rotation  # deferred: slow to import
+def kabsch(points: NDArray[np.float64], nominal: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    """Rigid motions ``(R, t)`` with ``R points + t`` closest to ``nominal`` (least squares),
+    batch-first: points ``(..., k, 3)``, rotations ``(..., 3, 3)``, translations ``(..., 3)``
+    (the orthogonal Procrustes solution from the SVD of the cross-covariance)."""
+    cp, cn = points.mean(axis=-2), nominal.mean(axis=-2)
+    cross = np.swapaxes(points - cp[..., None, :], -1, -2) @ (nominal - cn[..., None, :])
+    u, _, vt = np.linalg.svd(cross)
+    d = np.sign(np.linalg.det(np.swapaxes(vt, -1, -2) @ np.swapaxes(u, -1, -2)))
+    fix = np.ones((*d.shape, 3))
+    fix[..., 2] = np.where(d == 0, 1.0, d)
+    rot = np.swapaxes(vt, -1, -2) @ (fix[..., :, None] * np.swapaxes(u, -1, -2))
+    return rot, cn - np.einsum("...ij,...j->...i", rot, cp)
 
-    cp, cn = points.mean(axis=0), nominal.mean(axis=0)
-    rot = Rotation.align_vectors(nominal - cn, points - cp)[0].as_matrix()
-    return rot, cn - rot @ cp
 
-
-def apply_convention(problem: Problem, full: NDArray[np.float64], gauge: Gauge) -> NDArray[np.float64]:
-    """Parameter values in the convention's base and platform frames (see module)."""
-    joints, nominal = full[problem.joints], problem.full0[problem.joints]
-    base = _kabsch(joints[:18].reshape(6, 3), nominal[:18].reshape(6, 3)) if gauge.base else None
-    plat = _kabsch(joints[18:36].reshape(6, 3), nominal[18:36].reshape(6, 3)) if gauge.platform else None
+def apply_convention(
+    problem: Problem, full: NDArray[np.float64], gauge: Gauge | tuple[str, ...]
+) -> NDArray[np.float64]:
+    """Parameter values in the convention's base and platform frames (see module), batch-first:
+    ``full`` ``(..., N)``; ``gauge`` the gauge freedoms (or their labels)."""
+    labels = gauge.labels if isinstance(gauge, Gauge) else tuple(gauge)
+    full = np.asarray(full, dtype=float)
+    joints, nominal = full[..., problem.joints], problem.full0[problem.joints]
+    lead = joints.shape[:-1]
+    base = plat = None
+    if any(label.startswith("base") for label in labels):
+        base = kabsch(joints[..., :18].reshape(*lead, 6, 3), nominal[:18].reshape(6, 3))
+    if any(label.startswith("platform") for label in labels):
+        plat = kabsch(joints[..., 18:36].reshape(*lead, 6, 3), nominal[18:36].reshape(6, 3))
     out = transform_parameters(problem, full, base, plat)
     return full if out is None else out
 

@@ -240,7 +240,6 @@ def identification_jacobian(
     return problem.leg_jacobian(problem.full0, method, scaled=False)
 
 
-
 def whitened_jacobian(
     geometry: Geometry,
     poses: ArrayLike,

@@ -200,6 +200,19 @@ class MeasurementModel(ABC):
         :attr:`determine the pose <determines_pose>`)."""
         raise UsageError(f"the {self.name} measurement does not give the platform pose by itself")
 
+    def platform_from(
+        self, setup: NDArray[np.float64], measured: NDArray[np.float64], euler: str
+    ) -> NDArray[np.float64]:
+        """The platform poses ``(..., m, 6)`` of measured values ``(..., m, size)`` (batch-first;
+        instruments that determine the pose)."""
+        raise UsageError(f"the {self.name} measurement does not give the platform pose by itself")
+
+    @property
+    def constant_pose_jacobian(self) -> bool:
+        """Whether ``d residual / d pose`` is the identity (the full pose): batched solvers then
+        take the instrument rows of the pose Jacobian to be the whitener itself."""
+        return False
+
     def platform_covariance(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], noise: NoiseModel, euler: str
     ) -> NDArray[np.float64]:

@@ -83,5 +83,5 @@ class FramedModel(MeasurementModel):
         platform: tuple[NDArray, NDArray],
         euler: str,
     ) -> NDArray[np.float64]:
-        frame = transform_frame(setup[:6], base, euler)
-        return np.concatenate([frame, self.platform_setup(setup[6:], platform, euler)])
+        frame = transform_frame(setup[..., :6], base, euler)
+        return np.concatenate([frame, self.platform_setup(setup[..., 6:], platform, euler)], axis=-1)

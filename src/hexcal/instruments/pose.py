@@ -212,7 +212,7 @@ class ToolModel(FramedModel):
     ) -> NDArray[np.float64]:
         rp, tp = platform
         rot_t, t_t = frame_transform(values[..., :6], euler)
-        moved = np.einsum("ij,...j->...i", rp, t_t) + tp
+        moved = np.einsum("...ij,...j->...i", rp, t_t) + tp
         return np.concatenate([moved, matrix_to_euler(rp @ rot_t, euler)], axis=-1)
 
     def register(self, geometry: Geometry, data: Measurements) -> tuple[Any, Registration | None]:
@@ -220,6 +220,10 @@ class ToolModel(FramedModel):
             return self, None
         reg = register_pose_instrument(geometry, self.setup, data)
         return self.with_values(np.concatenate([reg.frame, reg.tool])), reg
+
+    @property
+    def constant_pose_jacobian(self) -> bool:
+        return bool(self.identity)
 
     # -- the pose itself ----------------------------------------------------------------
     @property

@@ -304,5 +304,6 @@ def transform_frame(frame: ArrayLike, base: tuple[NDArray, NDArray], euler: str)
     """
     rot, trans = frame_transform(frame, euler)
     rb, tb = base
-    new_rot = rot @ rb.T
-    return np.concatenate([trans - new_rot @ tb, matrix_to_euler(new_rot, euler)], axis=-1)
+    new_rot = rot @ np.swapaxes(rb, -1, -2)
+    moved = trans - np.einsum("...ij,...j->...i", new_rot, tb)
+    return np.concatenate([moved, matrix_to_euler(new_rot, euler)], axis=-1)

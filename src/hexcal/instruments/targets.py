@@ -108,7 +108,8 @@ class TargetModel(FramedModel):
     ) -> NDArray[np.float64]:
         rp, tp = platform
         points = values.reshape(*np.shape(values)[:-1], -1, 3)
-        return (points @ rp.T + tp).reshape(np.shape(values))
+        moved = points @ np.swapaxes(rp, -1, -2) + np.asarray(tp)[..., None, :]
+        return moved.reshape(np.shape(values))
 
     def group_labels(self) -> dict[str, str]:
         return {"position": "targets"}

@@ -14,9 +14,10 @@ targets or tool) with :func:`hexcal.calibration.estimate`, and measures:
   identified parameters and the real machine (in the convention's frames) goes where its
   forward kinematics says, noise-free, as for the full pose.
 
-A failed identification or an unreachable pose gives NaN for the trial. Trials of a chunk are
-identified one at a time; the seeding is per trial, so the numbers do not depend on the chunks
-or the executor.
+A failed identification or an unreachable pose gives NaN for the trial. Each trial's data come
+from its own generator and its frame is registered on its own; the trials of a cell are then
+identified together (the batched maximum likelihood of :mod:`hexcal.estimation.batched_ml`),
+so the numbers do not depend on the executor, and on the chunks only in the last digits.
 """
 
 from __future__ import annotations
@@ -54,48 +55,31 @@ def _length_rows(names: tuple[str, ...], geometry: Geometry) -> NDArray[np.bool_
     return np.array([n in lengths for n in names])
 
 
-def instrument_trial(
-    nominal: Geometry,
-    true: Geometry,
-    campaign: InstrumentCampaign,
-    commanded: NDArray[np.float64],
-    noise: NoiseModel,
-    rng: np.random.Generator,
-    method: str,
-    targets: NDArray[np.float64],
-) -> tuple[float, float, NDArray[np.float64], NDArray[np.float64]]:
-    """One trial: ``(error, bound, position errors, orientation errors)`` (NaN when it failed)."""
-    from hexcal.calibration import estimate
+def _simulate(nominal, true, campaign, commanded, noise, rng):
+    """One trial's session, or None where the true machine cannot reach a pose."""
+    try:
+        return simulate_session(nominal, true, campaign.true, commanded, noise, rng, **dict(campaign.options))
+    except (HexcalError, ValueError):
+        return None
+
+
+def _evaluate(nominal, true, campaign, session, values, noise, targets):
+    """``(error, bound, position errors, orientation errors)`` of one trial's identified
+    ``values`` (all the problem's parameters, under the gauge convention)."""
     from hexcal.estimation import Problem, apply_convention, cramer_rao, gauge_freedoms
 
-    nan = (float("nan"), float("nan"), np.full(len(targets), np.nan), np.full(len(targets), np.nan))
-    try:
-        session = simulate_session(
-            nominal, true, campaign.true, commanded, noise, rng, **dict(campaign.options)
-        )
-        fit = estimate(
-            nominal,
-            Session(session.data, campaign.start),
-            method,
-            noise=noise,
-            fit=campaign.fit,
-            with_bound=False,
-            verdict=False,
-            diagnose=False,
-        )
-    except (HexcalError, ValueError, np.linalg.LinAlgError):
-        return nan
-    calibrated = fit.instruments[0]
-    problem = Problem(fit.geometry, Session(session.data, calibrated), fit=campaign.fit)
+    start = session.instrument
+    problem = Problem(nominal, Session(session.data, start), fit=campaign.fit)
+    fitted = problem.geometry(values)
+    calibrated = start.with_values(values[problem.parts[0].block])
+    problem = Problem(fitted, Session(session.data, calibrated), fit=campaign.fit)
     full_true = np.array(problem.full0)
     full_true[problem.machine] = true.machine_vector()
     full_true[problem.parts[0].block] = campaign.true.parameters().values
     gauge = gauge_freedoms(problem, full_true)
     truth = apply_convention(problem, full_true, gauge) if gauge.size else full_true
-    got = problem.full0[problem.mask]
-    names = problem.names
-    rows = _length_rows(names, nominal)
-    error = float(np.mean(np.abs(got - truth[problem.mask])[rows]))
+    rows = _length_rows(problem.names, nominal)
+    error = float(np.mean(np.abs(problem.full0[problem.mask] - truth[problem.mask])[rows]))
     try:
         cov = cramer_rao(problem, noise, truth)
         bound = float(np.sqrt(2 / np.pi) * np.mean(np.sqrt(np.clip(np.diag(cov), 0, None))[rows]))
@@ -104,8 +88,9 @@ def instrument_trial(
     if gauge.size:  # the frames that fit the validation poses best, as a re-registration would
         truth = aligned_truth(problem, truth, targets)
     real = MachineBatch.from_geometry(problem.geometry(truth))
-    identified = MachineBatch.from_geometry(fit.geometry)
-    position, orientation = validate(nominal, real, targets[None], identified=identified)
+    position, orientation = validate(
+        nominal, real, targets[None], identified=MachineBatch.from_geometry(fitted)
+    )
     return error, bound, position[0], orientation[0]
 
 
@@ -147,12 +132,40 @@ def instrument_cell(
     method: str,
     targets: NDArray[np.float64],
 ) -> dict[str, NDArray[np.float64]]:
-    """The trials of one cell of a study measured by ``campaign``'s instrument."""
-    out = [
-        instrument_trial(nominal, true, campaign, commanded[k], noise, rngs[k], method, targets[k])
-        for k, true in enumerate(true_machines)
-    ]
-    errors, bounds, pos, ang = (np.array(v) for v in zip(*out, strict=True))
+    """The trials of one cell of a study measured by ``campaign``'s instrument: each trial's
+    session simulated from its own generator, the frames registered per trial, the trials of
+    the cell identified together (:func:`hexcal.estimation.estimate_stack`), then judged."""
+    from hexcal.calibration import register_sessions
+    from hexcal.estimation import Stack, estimate_stack
+
+    t, v = len(true_machines), targets.shape[1]
+    errors, bounds = np.full(t, np.nan), np.full(t, np.nan)
+    pos, ang = np.full((t, v), np.nan), np.full((t, v), np.nan)
+    sessions, trials = [], []
+    for k, true in enumerate(true_machines):  # the data of each trial (its own random stream)
+        session = _simulate(nominal, true, campaign, commanded[k], noise, rngs[k])
+        if session is None:
+            continue
+        try:
+            registered, _ = register_sessions(nominal, [Session(session.data, campaign.start)])
+        except (HexcalError, ValueError, np.linalg.LinAlgError):
+            continue
+        sessions.append(registered[0])
+        trials.append(k)
+    if sessions:
+        try:
+            stack = Stack.of_sessions(nominal, sessions, fit=campaign.fit)
+            batch = estimate_stack(stack, method, noise)
+        except (HexcalError, ValueError):
+            batch = None
+        for j, k in enumerate(trials):
+            if batch is None or not batch.converged[j]:
+                continue
+            values = np.array(stack.full0[j])
+            values[stack.mask] = batch.values[j]
+            errors[k], bounds[k], pos[k], ang[k] = _evaluate(
+                nominal, true_machines[k], campaign, sessions[j], values, noise, targets[k]
+            )
     return {
         "errors": errors,
         "bounds": bounds,

@@ -282,6 +282,16 @@ def run_study(
     """
     strategies = dict(STRATEGIES) if strategies is None else strategies
     noises = {"paper": NoiseModel()} if noises is None else noises
+    if campaign is not None:
+        from hexcal.errors import UsageError
+        from hexcal.estimation import get_estimator
+
+        for method in methods:
+            if get_estimator(method).needs_pose and not campaign.start.determines_pose:
+                raise UsageError(
+                    f"method {method}: it needs the platform pose measured, and the "
+                    f"{campaign.start.describe()} does not give it; use ml"
+                )
     definition = StudyDefinition(
         nominal,
         true,
