@@ -103,18 +103,41 @@ class Moves:
         """Straight moves only, through ``end`` (``(n, 6)``) from ``start``."""
         end = np.asarray(end, dtype=float).reshape(-1, 6)
         n = len(end)
-        zero = np.zeros(n)
-        return cls(
-            np.asarray(start, dtype=float),
-            end,
-            np.zeros(n, bool),
-            np.zeros((n, 2), np.intp),
-            np.zeros((n, 2)),
-            zero,
-            zero,
-            zero,
-            zero,
-        )
+        z = np.zeros(n)
+        return cls(np.asarray(start, dtype=float), end, np.zeros(n, bool), np.zeros((n, 2), np.intp),
+                   np.zeros((n, 2)), z, z, z, z)  # fmt: skip
+
+    @classmethod
+    def with_arcs(
+        cls,
+        start: NDArray[np.float64],
+        end: NDArray[np.float64],
+        index: NDArray[np.intp],
+        plane: NDArray[np.intp],
+        center: NDArray[np.float64],
+        clockwise: NDArray[np.bool_],
+        turns: NDArray[np.intp],
+    ) -> Moves:
+        """Moves through ``end``, those of ``index`` arcs about ``center`` in ``plane``.
+
+        An arc turns from its start to its end angle (clockwise or not), a full circle where
+        they coincide, plus ``turns - 1`` full circles.
+        """
+        out = cls.lines(start, end)
+        if len(index) == 0:
+            return out
+        s = np.take_along_axis(out.starts[index], plane, axis=1) - center
+        e = np.take_along_axis(out.end[index], plane, axis=1) - center
+        radius, end_radius = np.hypot(s[:, 0], s[:, 1]), np.hypot(e[:, 0], e[:, 1])
+        angle = np.arctan2(s[:, 1], s[:, 0])
+        sign = np.where(clockwise, -1.0, 1.0)
+        turn = np.mod(sign * (np.arctan2(e[:, 1], e[:, 0]) - angle), 2 * np.pi)
+        full = np.hypot(*(e - s).T) <= 1e-12 * np.maximum(1.0, radius)
+        sweep = sign * (np.where(full, 2 * np.pi, turn) + 2 * np.pi * (np.asarray(turns) - 1))
+        fields = [out.arc.copy(), out.plane.copy(), out.center.copy(), *np.zeros((4, len(end)))]
+        for field, value in zip(fields, (True, plane, center, angle, sweep, radius, end_radius), strict=True):
+            field[index] = value
+        return cls(out.start, out.end, *fields)
 
     def __len__(self) -> int:
         return len(self.end)

@@ -1,0 +1,446 @@
+"""G-code programs (RS274/NGC, LinuxCNC's dialect): a streaming reader of the moves and a
+writer of the corrected program.
+
+:func:`read_program` reads a program in blocks of lines and yields, per block, the source
+lines and the intended path of their G0/G1/G2/G3 moves as :class:`hexcal.core.Moves` (mm,
+rad). The modal state follows the program: motion mode G0 G1 G2 G3 (G80 cancels it), plane
+G17 G18 G19, distance mode G90 G91, arc distance mode G90.1 G91.1, units G21 mm or G20 inch
+(converted: the numbers are read and written in the program's unit); axis words left out keep
+their values, A B C are degrees. Arcs follow LinuxCNC: centre format (I J K offsets) or radius
+format (R; negative for more than half a turn), P turns, helices, the direction seen from the
+positive end of the plane's normal (G18: the ZX plane). Whatever the numbers cannot express
+is refused with one line naming the file and line: parameters and expressions (``#``,
+``[ ]``), O-words, polar words, block delete on a moving line, U V W axes, codes that change
+the coordinate frame or offset the path (G10 G28 G30 G52 G53 G55-G59.3 G92, G41 G42 G43),
+canned cycles, splines, probing, threading, inverse-time feed (G93). Lines after M2/M30 or
+a closing ``%`` are copied unread, as LinuxCNC does not read them.
+
+:class:`ProgramWriter` writes every source line back unchanged except the moves: their axis
+words are replaced by the six corrected ones (in G91, increments between the written
+numbers, so no rounding accumulates), an arc becomes G1 lines, and a move cut into several
+segments becomes several lines, the first carrying the source line's other words and
+comments, the last its stop codes (M0 M1 M2 M30 M60, which act after the motion).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import IO, NoReturn
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hexcal.core.path_compensation import CorrectedPath, Moves
+from hexcal.errors import InputError
+from hexcal.io.inputs import open_input
+
+#: Lines per block: the reader's and the writer's memory is bounded by one block.
+BLOCK_LINES = 10_000
+
+#: Longest line read (LinuxCNC's limit is 256 characters).
+MAX_LINE = 4096
+
+AXES = "XYZABC"
+_NUMBER = r"[+-]?[ \t]*(?:\d[\d \t]*(?:\.[\d \t]*)?|\.[ \t]*\d[\d \t]*)"
+_WORD = re.compile(rf"([A-Za-z])[ \t]*({_NUMBER})")
+_CODE = re.compile(rf"(?:[ \t]*[A-Za-z][ \t]*{_NUMBER})*[ \t]*")
+_COMMENT = re.compile(r"\([^()]*\)|;.*|[()]")
+_LETTERS = set("ABCDFGHIJKLMNPQRSTUVWXYZ")
+_MOTION = {0: 0, 10: 1, 20: 2, 30: 3, 800: None}
+_PLANE = {170: (0, 1), 180: (2, 0), 190: (1, 2)}
+_IN_PLANE = {(0, 1): "IJ", (2, 0): "KI", (1, 2): "JK"}
+_PLANE_NAMES = {(0, 1): "G17 (XY)", (2, 0): "G18 (ZX)", (1, 2): "G19 (YZ)"}
+_GROUPS = {"motion": _MOTION, "plane": _PLANE, "distance": {900: 0, 910: 1}}
+_GROUPS |= {"arc distance": {901: 0, 911: 1}, "units": {200: 25.4, 210: 1.0}}
+_KEPT = {40, 400, 490, 540, 610, 611, 640, 940, 950, 960, 970, 980, 990}
+_FRAME = {100, 280, 281, 300, 301, 520, 530, 550, 560, 570, 580, 590, 591, 592, 593, 920, 921, 922, 923}
+_OFFSET = {410, 411, 420, 421, 430, 431, 432}
+_STOPS = {0, 1, 2, 30, 60}
+
+
+def _g(code: int) -> str:
+    return f"G{code // 10}" + (f".{code % 10}" if code % 10 else "")
+
+
+def _refusal(code: int) -> str:
+    if code in _FRAME:
+        return (f"{_g(code)} changes or leaves the coordinate frame; hexcal filters programs whose "
+                "X Y Z A B C are poses in the machine's frame (G54 without offsets)")  # fmt: skip
+    if code in _OFFSET:
+        return f"{_g(code)} makes the controller offset the path, which would move the corrected path"
+    if code == 930:
+        return "G93 (inverse-time feed) is not supported: a move cut into segments would need new F words"
+    return f"{_g(code)} is not supported (only G0 G1 G2 G3 moves can be corrected; expand it into them)"
+
+
+@dataclass
+class _State:
+    pose: list[float]
+    motion: int | None = None
+    plane: tuple[int, int] = (0, 1)
+    distance: int = 0
+    arc_distance: int = 1
+    units: float = 1.0
+    started: bool = False  # a first '%' line was seen
+    ended: bool = False  # after M2/M30 or the closing '%': lines are copied unread
+
+
+@dataclass(frozen=True, eq=False)
+class ProgramBlock:
+    """One block of a program: its source lines and the moves among them.
+
+    Attributes
+    ----------
+    first_line : int
+        Number (1-based) of ``lines[0]`` in the file; ``lines``: the source lines as read,
+        line endings included; ``chars``: characters read so far (for progress).
+    moves : Moves
+        The intended path of the block's moves (mm, rad).
+    move_lines : ndarray of int, shape (n,)
+        Block-local index of each move's line.
+    templates : list of tuple of str
+        Per move: the line before and after its new motion and axis words, the same without
+        its stop codes (the first line of a move cut into segments), the stop codes (for the
+        last line), and the motion word ``G0`` or ``G1``.
+    scale, incremental : ndarray, shape (n,)
+        Millimetres per program unit (1 or 25.4) and G91, per move.
+    """
+
+    first_line: int
+    lines: list[str]
+    moves: Moves
+    move_lines: NDArray[np.intp]
+    templates: list[tuple[str, str, str, str, str, str]]
+    scale: NDArray[np.float64]
+    incremental: NDArray[np.bool_]
+    chars: int
+
+    def line_number(self, move: int) -> int:
+        """The file's line number of move ``move`` of this block."""
+        return self.first_line + int(self.move_lines[move])
+
+
+def _arc_moves(name: str, first: int, lines: list[int], start: NDArray[np.float64],
+               end: NDArray[np.float64], arcs: list[tuple[float, ...]]) -> Moves:  # fmt: skip
+    """The block's moves, its arcs' centres found from I J K or R and checked as LinuxCNC does."""
+    if not arcs:
+        return Moves.lines(start, end)
+    k, u, v, cw, du, dv, big_r, absolute, turns, scale = np.array(arcs).T
+    k, plane = k.astype(np.intp), np.stack([u, v], axis=1).astype(np.intp)
+    s = np.take_along_axis(np.concatenate([start[None], end[:-1]])[k], plane, axis=1)
+    e = np.take_along_axis(end[k], plane, axis=1)
+    center = np.stack([du, dv], axis=1) + np.where(absolute[:, None] > 0, 0.0, s)
+    r_form = np.isfinite(big_r)
+    chord = e - s
+    half = 0.5 * np.hypot(chord[:, 0], chord[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):  # R form: the centre off the chord's middle
+        normal = np.stack([-chord[:, 1], chord[:, 0]], axis=1) / (2 * half[:, None])
+        side = np.where(cw > 0, -1.0, 1.0) * np.sign(big_r) * np.sqrt(np.maximum(big_r**2 - half**2, 0.0))
+        center = np.where(r_form[:, None], 0.5 * (s + e) + side[:, None] * normal, center)
+    moves = Moves.with_arcs(start, end, k, plane, center, cw > 0, turns.astype(np.intp))
+    r0, r1 = moves.radius[k], moves.end_radius[k]
+    diff, inch = np.abs(r1 - r0), scale != 1.0
+    problems = [
+        (r_form & (half == 0), "an R-form arc cannot end where it starts (use I J K for a full circle)"),
+        (r_form & (half - np.abs(big_r) > np.where(inch, 1e-4 * 25.4, 1e-3)),
+         "the arc radius R is smaller than half the distance to the end point"),
+        (r0 <= 0, "the arc has zero radius"),
+        (~r_form & ((diff > np.where(inch, 0.05 * 25.4, 0.5))
+                    | ((diff > np.where(inch, 5e-4 * 25.4, 5e-3)) & (diff > 1e-3 * r0))),
+         "the radius to the end of the arc differs from the radius to its start"),
+    ]  # fmt: skip
+    for bad, text in problems:
+        if bad.any():
+            j = int(np.flatnonzero(bad)[0])
+            raise InputError(f"{name}: line {first + lines[k[j]]}: {text} (radius at the start "
+                             f"{r0[j]:.6g} mm, at the end {r1[j]:.6g} mm)")  # fmt: skip
+    return moves
+
+
+def _words(text: str, fail: Callable[[str], NoReturn]) -> list[tuple[str, float, int, int]]:
+    """``(letter, value, start, end)`` of every word of a line (comments left out)."""
+    parts = [(0, text)]
+    if "(" in text or ")" in text or ";" in text:
+        parts, pos = [], 0
+        for m in _COMMENT.finditer(text):
+            if m.group() in "()":
+                fail("a '(' without ')' or a ')' without '(' (comments cannot be nested)")
+            parts.append((pos, text[pos : m.start()]))
+            pos = m.end()
+        parts.append((pos, text[pos:]))
+    out = []
+    for offset, part in parts:
+        if not _CODE.fullmatch(part):
+            if "#" in part or "[" in part:
+                fail("parameters and expressions (#, [ ]) are not supported; give plain numbers")
+            fail(f"cannot read {_WORD.sub(' ', part).strip()[:20]!r} (a word is a letter and a number)")
+        for m in _WORD.finditer(part):
+            letter, value = m.group(1).upper(), float(m.group(2).replace(" ", "").replace("\t", ""))
+            if letter not in _LETTERS or not math.isfinite(value):
+                fail("O-words (subroutines, loops) are not supported" if letter == "O" else
+                     f"{m.group().strip()!r} is not a word of the language")  # fmt: skip
+            out.append((letter, value, offset + m.start(), offset + m.end()))
+    return out
+
+
+def read_program(
+    path: str | os.PathLike[str], start: NDArray[np.float64], block_lines: int = BLOCK_LINES
+) -> Iterator[ProgramBlock]:
+    """The blocks of a G-code program, each with the intended path of its moves.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A regular file (UTF-8 or ASCII).
+    start : ndarray, shape (6,)
+        The pose (mm, rad) assumed before the first move: the values of the axes the
+        program has not set yet, and the start of its first move.
+    block_lines : int
+        Lines per block.
+
+    Raises
+    ------
+    InputError
+        ``FILE: line N: ...`` for the first line that cannot be read or corrected.
+    """
+    name = os.fspath(path)
+    state = _State([float(v) for v in start])
+    number, chars = 0, 0
+    with open_input(name) as fh:
+        while True:
+            lines: list[str] = []
+            try:
+                while len(lines) < block_lines and (line := fh.readline(MAX_LINE + 1)):
+                    if len(line) > MAX_LINE and not line.endswith(("\n", "\r")):
+                        where = f"{name}: line {number + len(lines) + 1}"
+                        raise InputError(f"{where}: longer than {MAX_LINE} characters")
+                    lines.append(line)
+                    chars += len(line)
+            except UnicodeDecodeError:
+                raise InputError(f"{name}: line {number + len(lines) + 1}: not UTF-8 text") from None
+            if not lines:
+                return
+            yield _block(name, number + 1, lines, state, chars)
+            number += len(lines)
+
+
+def _block(name: str, first: int, lines: list[str], state: _State, chars: int) -> ProgramBlock:
+    start = np.array(state.pose)
+    rows: list[tuple] = []
+    arcs: list[tuple[float, ...]] = []
+    for i, raw in enumerate(lines):
+        text = raw.rstrip("\r\n")
+        bare = text.strip()
+        if state.ended or not bare:
+            continue
+        if bare == "%":
+            state.ended, state.started = state.started, True
+            continue
+
+        def fail(message: str, i: int = i) -> NoReturn:
+            raise InputError(f"{name}: line {first + i}: {message}")
+
+        words = _words(text, fail)
+        if bare.startswith("/") and words:
+            fail("block delete '/' on a line with words: the path would depend on the switch")
+        move = _line(state, words, fail)
+        if move is None:
+            continue
+        end, anchor, drop, stop, arc = move
+        if arc is not None:
+            arcs.append((len(rows), *arc, state.units))
+        spans = [(w[2], w[3]) for w in words]
+        head = _head(text, spans, anchor, drop)
+        split = _head(text, spans, anchor, drop | stop) if stop else head
+        stops = " ".join(text[spans[j][0] : spans[j][1]].strip() for j in sorted(stop))
+        template = (*head, *split, stops, "G0" if state.motion == 0 else "G1")
+        rows.append((end, i, template, state.units, bool(state.distance)))
+    ends = np.array([r[0] for r in rows], dtype=float).reshape(-1, 6)
+    at = [r[1] for r in rows]
+    return ProgramBlock(
+        first, lines, _arc_moves(name, first, at, start, ends, arcs), np.array(at, dtype=np.intp),
+        [r[2] for r in rows], np.array([r[3] for r in rows]), np.array([r[4] for r in rows], bool), chars,
+    )  # fmt: skip
+
+
+def _line(
+    state: _State, words: list[tuple[str, float, int, int]], fail: Callable[[str], NoReturn]
+) -> tuple | None:
+    """Update the modal state with one line's words; the move it makes, or None.
+
+    The move: ``(end pose, anchor word, words to drop, stop words, arc words or None)``.
+    """
+    seen: set[str] = set()
+    axes: dict[str, float] = {}
+    arc_words: dict[str, float] = {}
+    new: dict[str, object] = {}
+    anchor, drop, stop, others = None, set(), set(), set()
+    for j, (letter, value, _, _) in enumerate(words):
+        if letter in seen and letter not in "GM":
+            fail(f"{letter} appears twice on the line")
+        seen.add(letter)
+        if letter == "G":
+            code = round(value * 10)
+            group = next((g for g, codes in _GROUPS.items() if code in codes), None)
+            if abs(value * 10 - code) > 1e-3 or (group is None and code not in _KEPT):
+                fail(_refusal(code) if abs(value * 10 - code) <= 1e-3 else f"G{value:g} is not a G code")
+            if group in new:
+                fail(f"two {group} codes on one line")
+            if group is None:
+                others.add(code)
+            else:
+                new[group] = _GROUPS[group][code]
+                anchor = j if group == "motion" else anchor
+        elif letter == "M" and value in (98, 99):
+            fail("M98/M99 subprograms are not supported")
+        elif letter == "M" and value in _STOPS:
+            stop.add(j)
+            state.ended = state.ended or value in (2, 30)
+        elif letter in AXES:
+            axes[letter] = value
+            drop.add(j)
+        elif letter in "UVW":
+            fail(f"the {letter} axis is not part of a hexapod's pose (X Y Z A B C)")
+        elif letter in "IJKRP":
+            arc_words[letter] = value
+    for group, value in new.items():
+        setattr(state, group.replace(" ", "_"), value)
+    is_arc = state.motion in (2, 3)
+    offsets = {k: v for k, v in arc_words.items() if k in "IJK"}
+    if not is_arc and (offsets or "R" in arc_words):
+        fail("I J K R words without G2 or G3")
+    if not axes and not (is_arc and (offsets or "R" in arc_words)):
+        return None
+    if state.motion is None:
+        fail("axis words without a motion mode (G0, G1, G2 or G3)")
+    end = list(state.pose)
+    for letter, value in axes.items():
+        k = AXES.index(letter)
+        number = value * state.units if k < 3 else math.radians(value)
+        end[k] = end[k] + number if state.distance else number
+    arc = None
+    if is_arc:
+        letters = _IN_PLANE[state.plane]
+        if set(offsets) - set(letters):
+            wrong = "/".join(sorted(set(offsets) - set(letters)))
+            fail(f"{wrong} offset outside the arc plane {_PLANE_NAMES[state.plane]}")
+        if (not offsets) == ("R" not in arc_words):
+            fail("an arc takes I J K offsets or an R radius (one of them)")
+        if "R" in arc_words and not any(AXES[k] in axes for k in state.plane):
+            fail("an R-form arc needs an end point in its plane")
+        turns = arc_words.get("P", 1.0)
+        if turns != round(turns) or turns < 1 or others & {40, 640}:
+            fail("the P word of an arc must be a whole number of turns >= 1 (and no G4 or G64 P on the line)")
+        pair = [offsets.get(c, math.nan if "R" in arc_words else 0.0) * state.units for c in letters]
+        radius = arc_words.get("R", math.nan) * state.units
+        arc = (*state.plane, state.motion == 2, *pair, radius, not state.arc_distance, turns)
+        drop |= {j for j, w in enumerate(words) if w[0] in "IJKRP"}
+    anchor = min(drop) if anchor is None else anchor
+    state.pose = end
+    return end, anchor, drop - {anchor}, stop, arc
+
+
+def _head(text: str, spans: list[tuple[int, int]], anchor: int, drop: set[int]) -> tuple[str, str]:
+    """The line without the dropped words, split where the anchor word was."""
+    parts, pos = [], 0
+    for j in sorted(drop | {anchor}):
+        parts += [text[pos : spans[j][0]], "\0" if j == anchor else ""]
+        pos = spans[j][1]
+    before, after = "".join([*parts, text[pos:]]).split("\0")
+    return before, (" " + after if after and not after[0].isspace() else after).rstrip()
+
+
+def comment(text: str, most: int = 200) -> str:
+    """``text`` as one comment line ``(...)``: outside printable ASCII, and ``( ) \\ ;``,
+    escaped as ``\\xNN``, ``\\uNNNN`` or ``\\UNNNNNNNN``, so that no input text (a geometry's
+    name, a file name) can end the comment or the line; cut to ``most`` characters.
+
+    >>> comment("evil) M2 (\\n")
+    '(evil\\\\x29 M2 \\\\x28\\\\x0a)'
+    """
+    out = "".join(c if " " <= c <= "~" and c not in "()\\;" else _escape(ord(c)) for c in text)
+    return f"({out[: most - 3] + '...' if len(out) > most else out})"
+
+
+def _escape(code: int) -> str:
+    return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}"
+
+
+class ProgramWriter:
+    """Writes a corrected program block by block on an open text handle.
+
+    Parameters
+    ----------
+    fh : text handle
+    header : list of str
+        Comment lines written before the program (after its first line if that is ``%``).
+    decimals : (int, int, int)
+        Decimals of X Y Z in a millimetre and in an inch program, and of A B C (degrees).
+    start : ndarray, shape (6,)
+        The corrected start pose (mm, rad): where a G91 program's first increment starts.
+    """
+
+    def __init__(
+        self, fh: IO[str], header: list[str], decimals: tuple[int, int, int], start: NDArray[np.float64]
+    ) -> None:
+        self.fh, self.header, self.decimals = fh, header, decimals
+        angles = np.round(np.degrees(start[3:]), decimals[2])
+        self.last = np.concatenate([np.round(start[:3], decimals[0]), angles])
+        self.lines = 0
+
+    def _numbers(self, block: ProgramBlock, path: CorrectedPath) -> list[str]:
+        """The six axis words of every output point, as written."""
+        d_mm, d_inch, d_angle = self.decimals
+        scale = block.scale[path.move][:, None]
+        inch = scale[:, 0] != 1.0
+        values = np.concatenate([path.corrected[:, :3] / scale, np.degrees(path.corrected[:, 3:])], axis=1)
+        factor = np.where(np.arange(6) < 3, np.where(inch, 10.0**d_inch, 10.0**d_mm)[:, None], 10.0**d_angle)
+        written = np.round(values * factor) / factor
+        absolute = np.concatenate([written[:, :3] * scale, written[:, 3:]], axis=1)  # mm, deg
+        step = np.diff(np.concatenate([self.last[None], absolute]), axis=0)
+        step[:, :3] /= scale
+        out = np.where(block.incremental[path.move][:, None], np.round(step * factor) / factor, written)
+        out += 0.0  # no "-0.00000"
+        if len(absolute):
+            self.last = absolute[-1]
+        texts = np.empty(len(out), dtype=object)
+        for mask, d in ((~inch, d_mm), (inch, d_inch)):
+            if mask.any():
+                one = " ".join(f"{a}%.{d if a in 'XYZ' else d_angle}f" for a in AXES) + "\n"
+                texts[mask] = ((one * int(mask.sum())) % tuple(out[mask].ravel().tolist())).split("\n")[:-1]
+        return texts.tolist()
+
+    def write(self, block: ProgramBlock, path: CorrectedPath) -> None:
+        """Write one block's lines, its moves replaced by the corrected points of ``path``."""
+        out: list[str] = []
+        skip = 0
+        if self.header is not None:
+            first = next((i for i, line in enumerate(block.lines) if line.strip()), None)
+            skip = first + 1 if first is not None and block.lines[first].strip() == "%" else 0
+            out += block.lines[:skip] + [line + "\n" for line in self.header]
+            self.header = None  # type: ignore[assignment]
+        texts = self._numbers(block, path)
+        starts, counts = (np.cumsum(path.counts) - path.counts).tolist(), path.counts.tolist()
+        at_line, m = block.move_lines.tolist(), 0
+        for i in range(skip, len(block.lines)):
+            raw = block.lines[i]
+            if m == len(at_line) or at_line[m] != i:
+                out.append(raw)
+                continue
+            text = raw.rstrip("\r\n")
+            before, after, split_before, split_after, stops, word = block.templates[m]
+            ending, c, s = raw[len(text) :], counts[m], starts[m]
+            if c == 1:
+                out.append(f"{before}{word} {texts[s]}{after}{ending}")
+            else:
+                sep, indent = ending or "\n", text[: len(text) - len(text.lstrip())]
+                out.append(f"{split_before}{word} {texts[s]}{split_after}{sep}")
+                out += [f"{indent}{word} {texts[j]}{sep}" for j in range(s + 1, s + c - 1)]
+                out.append(f"{indent}{word} {texts[s + c - 1]}{' ' + stops if stops else ''}{ending}")
+            m += 1
+        self.lines += len(out)
+        self.fh.write("".join(out))
