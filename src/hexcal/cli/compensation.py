@@ -220,8 +220,7 @@ def _compensate_program(args: argparse.Namespace) -> None:
 
     from hexcal.core import PathError, correct_path, correct_poses
     from hexcal.errors import InputError
-    from hexcal.io import atomic_write
-    from hexcal.io.gcode import ProgramWriter, comment, read_program
+    from hexcal.io import atomic_write, gcode
 
     _check_program_options(args)
     geometry = load_geometry(args.geometry, args.euler)
@@ -234,10 +233,12 @@ def _compensate_program(args: argparse.Namespace) -> None:
     tol, angle_tol = args.tolerance, args.angle_tolerance
     decimals = (_decimals(tol), _decimals(tol / 25.4), _decimals(math.degrees(angle_tol)))
     (cal, cal_sha), (nom, nom_sha) = _sha256(args.geometry, geometry), _sha256(args.nominal, nominal)
-    header = [comment(text) for text in (
+    header = [gcode.gcode_comment(text) for text in (
         f"hexcal {version('hexcal')} compensate: corrected for a controller that keeps the nominal geometry",
-        f'calibrated geometry: {cal}, name "{geometry.name}", sha256 {cal_sha}',
-        f'nominal geometry: {nom}, name "{nominal.name}", sha256 {nom_sha}',
+        f"calibrated geometry: sha256 {cal_sha}, {cal}",
+        f'calibrated geometry name: "{geometry.name}"',
+        f"nominal geometry: sha256 {nom_sha}, {nom}",
+        f'nominal geometry name: "{nominal.name}"',
         f"A B C: degrees, Euler sequence {_sequence(geometry.euler)}",
         f"tolerance along the whole path: {tol:g} mm in position, {angle_tol:g} rad in orientation",
         f"units: the program's, G21 mm unless it selects G20 inch, converted, X Y Z written with "
@@ -251,8 +252,8 @@ def _compensate_program(args: argparse.Namespace) -> None:
     targets_out, corrected_out = _Lines(), _Lines()
     last = start_corrected
     with atomic_write(args.out) as fh:
-        writer = ProgramWriter(fh, header, decimals, start_corrected)
-        for block in read_program(args.gcode, start):
+        writer = gcode.ProgramWriter(fh, header, decimals, start_corrected)
+        for block in gcode.read_program(args.gcode, start, gcode.BLOCK_LINES):
             try:
                 path = correct_path(geometry, nominal, block.moves, last, tol, angle_tol)
             except PathError as exc:

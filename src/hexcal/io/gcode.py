@@ -47,7 +47,7 @@ MAX_LINE = 4096
 AXES = "XYZABC"
 _NUMBER = r"[+-]?[ \t]*(?:\d[\d \t]*(?:\.[\d \t]*)?|\.[ \t]*\d[\d \t]*)"
 _WORD = re.compile(rf"([A-Za-z])[ \t]*({_NUMBER})")
-_CODE = re.compile(rf"(?:[ \t]*[A-Za-z][ \t]*{_NUMBER})*[ \t]*")
+_CODE = re.compile(rf"[ \t]*(?:[A-Za-z][ \t]*{_NUMBER})*")  # a number takes its trailing blanks
 _COMMENT = re.compile(r"\([^()]*\)|;.*|[()]")
 _LETTERS = set("ABCDFGHIJKLMNPQRSTUVWXYZ")
 _MOTION = {0: 0, 10: 1, 20: 2, 30: 3, 800: None}
@@ -177,6 +177,8 @@ def _words(text: str, fail: Callable[[str], NoReturn]) -> list[tuple[str, float,
         if not _CODE.fullmatch(part):
             if "#" in part or "[" in part:
                 fail("parameters and expressions (#, [ ]) are not supported; give plain numbers")
+            if part.lstrip()[:1] in ("o", "O"):
+                fail("O-words (subroutines, loops) are not supported")
             fail(f"cannot read {_WORD.sub(' ', part).strip()[:20]!r} (a word is a letter and a number)")
         for m in _WORD.finditer(part):
             letter, value = m.group(1).upper(), float(m.group(2).replace(" ", "").replace("\t", ""))
@@ -244,8 +246,9 @@ def _block(name: str, first: int, lines: list[str], state: _State, chars: int) -
         def fail(message: str, i: int = i) -> NoReturn:
             raise InputError(f"{name}: line {first + i}: {message}")
 
-        words = _words(text, fail)
-        if bare.startswith("/") and words:
+        blocked = bare.startswith("/")
+        words = _words(text.replace("/", " ", 1) if blocked else text, fail)
+        if blocked and words:
             fail("block delete '/' on a line with words: the path would depend on the switch")
         move = _line(state, words, fail)
         if move is None:
@@ -354,12 +357,12 @@ def _head(text: str, spans: list[tuple[int, int]], anchor: int, drop: set[int]) 
     return before, (" " + after if after and not after[0].isspace() else after).rstrip()
 
 
-def comment(text: str, most: int = 200) -> str:
+def gcode_comment(text: str, most: int = 250) -> str:
     """``text`` as one comment line ``(...)``: outside printable ASCII, and ``( ) \\ ;``,
     escaped as ``\\xNN``, ``\\uNNNN`` or ``\\UNNNNNNNN``, so that no input text (a geometry's
     name, a file name) can end the comment or the line; cut to ``most`` characters.
 
-    >>> comment("evil) M2 (\\n")
+    >>> gcode_comment("evil) M2 (\\n")
     '(evil\\\\x29 M2 \\\\x28\\\\x0a)'
     """
     out = "".join(c if " " <= c <= "~" and c not in "()\\;" else _escape(ord(c)) for c in text)
@@ -421,7 +424,8 @@ class ProgramWriter:
         if self.header is not None:
             first = next((i for i, line in enumerate(block.lines) if line.strip()), None)
             skip = first + 1 if first is not None and block.lines[first].strip() == "%" else 0
-            out += block.lines[:skip] + [line + "\n" for line in self.header]
+            ending = next((line[len(line.rstrip("\r\n")) :] for line in block.lines[:1]), "") or "\n"
+            out += block.lines[:skip] + [line + ending for line in self.header]
             self.header = None  # type: ignore[assignment]
         texts = self._numbers(block, path)
         starts, counts = (np.cumsum(path.counts) - path.counts).tolist(), path.counts.tolist()
