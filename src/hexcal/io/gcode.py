@@ -3,17 +3,15 @@ writer of the corrected program.
 
 :func:`read_program` reads a program in blocks of lines and yields, per block, the source
 lines and the intended path of their G0/G1/G2/G3 moves as :class:`hexcal.core.Moves` (mm,
-rad). The modal state follows the program: motion mode G0 G1 G2 G3 (G80 cancels it), plane
-G17 G18 G19, distance mode G90 G91, arc distance mode G90.1 G91.1, units G21 mm or G20 inch
-(converted: the numbers are read and written in the program's unit); axis words left out keep
-their values, A B C are degrees. Arcs follow LinuxCNC: centre format (I J K offsets) or radius
-format (R; negative for more than half a turn), P turns, helices, the direction seen from the
-positive end of the plane's normal (G18: the ZX plane). Whatever the numbers cannot express
-is refused with one line naming the file and line: parameters and expressions (``#``,
-``[ ]``), O-words, polar words, block delete on a moving line, U V W axes, codes that change
-the coordinate frame or offset the path (G10 G28 G30 G52 G53 G55-G59.3 G92, G41 G42 G43),
-canned cycles, splines, probing, threading, inverse-time feed (G93). Lines after M2/M30 or
-a closing ``%`` are copied unread, as LinuxCNC does not read them.
+rad). The modal state follows the program: G0 G1 G2 G3 (G80 cancels), G17 G18 G19, G90 G91,
+G90.1 G91.1, G21 mm or G20 inch (converted: numbers are read and written in the program's
+unit); axis words left out keep their values; A B C are degrees. Arcs follow LinuxCNC: I J K
+offsets or R (negative: more than half a turn), P turns, helices, the direction seen from the
+positive end of the plane's normal (G18 is the ZX plane). Refused with one line naming file
+and line: parameters and expressions (``#``, ``[ ]``), O-words, polar words, block delete on
+a line with words, U V W, codes that change the frame or offset the path (G10 G28 G30 G52
+G53 G55-G59.3 G92, G41 G42 G43), canned cycles, splines, probing, threading, G93. Lines after
+M2/M30 or a closing ``%`` are copied unread, as LinuxCNC does not read them.
 
 :class:`ProgramWriter` writes every source line back unchanged except the moves: their axis
 words are replaced by the six corrected ones (in G91, increments between the written
@@ -48,33 +46,34 @@ AXES = "XYZABC"
 _NUMBER = r"[+-]?[ \t]*(?:\d[\d \t]*(?:\.[\d \t]*)?|\.[ \t]*\d[\d \t]*)"
 _WORD = re.compile(rf"([A-Za-z])[ \t]*({_NUMBER})")
 _CODE = re.compile(rf"[ \t]*(?:[A-Za-z][ \t]*{_NUMBER})*")  # a number takes its trailing blanks
+_TIGHT = re.compile(r"(([A-Za-z])([+-]?(?:\d+\.?\d*|\.\d+))[ \t]*)")
+_PLAIN = re.compile(r"[ \t]*(?:[A-Za-z][+-]?(?:\d+\.?\d*|\.\d+)[ \t]*)*")
 _COMMENT = re.compile(r"\([^()]*\)|;.*|[()]")
 _LETTERS = set("ABCDFGHIJKLMNPQRSTUVWXYZ")
 _MOTION = {0: 0, 10: 1, 20: 2, 30: 3, 800: None}
 _PLANE = {170: (0, 1), 180: (2, 0), 190: (1, 2)}
-_IN_PLANE = {(0, 1): "IJ", (2, 0): "KI", (1, 2): "JK"}
-_PLANE_NAMES = {(0, 1): "G17 (XY)", (2, 0): "G18 (ZX)", (1, 2): "G19 (YZ)"}
+_PLANES = {(0, 1): ("IJ", "G17 (XY)"), (2, 0): ("KI", "G18 (ZX)"), (1, 2): ("JK", "G19 (YZ)")}
 _GROUPS = {"motion": _MOTION, "plane": _PLANE, "distance": {900: 0, 910: 1}}
-_GROUPS |= {"arc distance": {901: 0, 911: 1}, "units": {200: 25.4, 210: 1.0}}
+_GROUPS |= {"arc_distance": {901: 0, 911: 1}, "units": {200: 25.4, 210: 1.0}}
+_BY_CODE = {code: (group, mode) for group, codes in _GROUPS.items() for code, mode in codes.items()}
+_AXIS = {letter: k for k, letter in enumerate(AXES)}
 _KEPT = {40, 400, 490, 540, 610, 611, 640, 940, 950, 960, 970, 980, 990}
 _FRAME = {100, 280, 281, 300, 301, 520, 530, 550, 560, 570, 580, 590, 591, 592, 593, 920, 921, 922, 923}
 _OFFSET = {410, 411, 420, 421, 430, 431, 432}
 _STOPS = {0, 1, 2, 30, 60}
-
-
-def _g(code: int) -> str:
-    return f"G{code // 10}" + (f".{code % 10}" if code % 10 else "")
+_Word = tuple[str, float, int, int]  # letter, value, start and end in the line
 
 
 def _refusal(code: int) -> str:
+    g = f"G{code // 10}" + (f".{code % 10}" if code % 10 else "")
     if code in _FRAME:
-        return (f"{_g(code)} changes or leaves the coordinate frame; hexcal filters programs whose "
+        return (f"{g} changes or leaves the coordinate frame; hexcal filters programs whose "
                 "X Y Z A B C are poses in the machine's frame (G54 without offsets)")  # fmt: skip
     if code in _OFFSET:
-        return f"{_g(code)} makes the controller offset the path, which would move the corrected path"
+        return f"{g} makes the controller offset the path, which would move the corrected path"
     if code == 930:
         return "G93 (inverse-time feed) is not supported: a move cut into segments would need new F words"
-    return f"{_g(code)} is not supported (only G0 G1 G2 G3 moves can be corrected; expand it into them)"
+    return f"{g} is not supported (only G0 G1 G2 G3 moves can be corrected; expand it into them)"
 
 
 @dataclass
@@ -161,7 +160,7 @@ def _arc_moves(name: str, first: int, lines: list[int], start: NDArray[np.float6
     return moves
 
 
-def _words(text: str, fail: Callable[[str], NoReturn]) -> list[tuple[str, float, int, int]]:
+def _words(text: str, fail: Callable[[str], NoReturn]) -> list[_Word]:
     """``(letter, value, start, end)`` of every word of a line (comments left out)."""
     parts = [(0, text)]
     if "(" in text or ")" in text or ";" in text:
@@ -172,20 +171,25 @@ def _words(text: str, fail: Callable[[str], NoReturn]) -> list[tuple[str, float,
             parts.append((pos, text[pos : m.start()]))
             pos = m.end()
         parts.append((pos, text[pos:]))
-    out = []
+    out: list[_Word] = []
     for offset, part in parts:
+        if _PLAIN.fullmatch(part):  # the usual line: no blanks inside the numbers
+            pos = offset + len(part) - len(part.lstrip(" \t"))
+            for full, letter, number in _TIGHT.findall(part):
+                out.append((letter.upper(), float(number), pos, pos := pos + len(full)))
+            continue
         if not _CODE.fullmatch(part):
             if "#" in part or "[" in part:
                 fail("parameters and expressions (#, [ ]) are not supported; give plain numbers")
             if part.lstrip()[:1] in ("o", "O"):
                 fail("O-words (subroutines, loops) are not supported")
             fail(f"cannot read {_WORD.sub(' ', part).strip()[:20]!r} (a word is a letter and a number)")
-        for m in _WORD.finditer(part):
-            letter, value = m.group(1).upper(), float(m.group(2).replace(" ", "").replace("\t", ""))
-            if letter not in _LETTERS or not math.isfinite(value):
-                fail("O-words (subroutines, loops) are not supported" if letter == "O" else
-                     f"{m.group().strip()!r} is not a word of the language")  # fmt: skip
-            out.append((letter, value, offset + m.start(), offset + m.end()))
+        out += [(m[1].upper(), float(re.sub("[ \t]", "", m[2])), offset + m.start(), offset + m.end())
+                for m in _WORD.finditer(part)]  # fmt: skip
+    for letter, value, start, end in out:
+        if letter not in _LETTERS or not math.isfinite(value):
+            fail("O-words (subroutines, loops) are not supported" if letter == "O" else
+                 f"{text[start:end].strip()!r} is not a word of the language")  # fmt: skip
     return out
 
 
@@ -256,10 +260,9 @@ def _block(name: str, first: int, lines: list[str], state: _State, chars: int) -
         end, anchor, drop, stop, arc = move
         if arc is not None:
             arcs.append((len(rows), *arc, state.units))
-        spans = [(w[2], w[3]) for w in words]
-        head = _head(text, spans, anchor, drop)
-        split = _head(text, spans, anchor, drop | stop) if stop else head
-        stops = " ".join(text[spans[j][0] : spans[j][1]].strip() for j in sorted(stop))
+        head = _head(text, words, anchor, drop)
+        split = _head(text, words, anchor, drop | stop) if stop else head
+        stops = " ".join(text[words[j][2] : words[j][3]].strip() for j in sorted(stop))
         template = (*head, *split, stops, "G0" if state.motion == 0 else "G1")
         rows.append((end, i, template, state.units, bool(state.distance)))
     ends = np.array([r[0] for r in rows], dtype=float).reshape(-1, 6)
@@ -270,9 +273,7 @@ def _block(name: str, first: int, lines: list[str], state: _State, chars: int) -
     )  # fmt: skip
 
 
-def _line(
-    state: _State, words: list[tuple[str, float, int, int]], fail: Callable[[str], NoReturn]
-) -> tuple | None:
+def _line(state: _State, words: list[_Word], fail: Callable[[str], NoReturn]) -> tuple | None:
     """Update the modal state with one line's words; the move it makes, or None.
 
     The move: ``(end pose, anchor word, words to drop, stop words, arc words or None)``.
@@ -286,32 +287,32 @@ def _line(
         if letter in seen and letter not in "GM":
             fail(f"{letter} appears twice on the line")
         seen.add(letter)
-        if letter == "G":
+        if letter in _AXIS:
+            axes[letter] = value
+            drop.add(j)
+        elif letter == "G":
             code = round(value * 10)
-            group = next((g for g, codes in _GROUPS.items() if code in codes), None)
+            group, mode = _BY_CODE.get(code, (None, None))
             if abs(value * 10 - code) > 1e-3 or (group is None and code not in _KEPT):
                 fail(_refusal(code) if abs(value * 10 - code) <= 1e-3 else f"G{value:g} is not a G code")
             if group in new:
-                fail(f"two {group} codes on one line")
+                fail(f"two {group.replace('_', ' ')} codes on one line")
             if group is None:
                 others.add(code)
             else:
-                new[group] = _GROUPS[group][code]
+                new[group] = mode
                 anchor = j if group == "motion" else anchor
         elif letter == "M" and value in (98, 99):
             fail("M98/M99 subprograms are not supported")
         elif letter == "M" and value in _STOPS:
             stop.add(j)
             state.ended = state.ended or value in (2, 30)
-        elif letter in AXES:
-            axes[letter] = value
-            drop.add(j)
         elif letter in "UVW":
             fail(f"the {letter} axis is not part of a hexapod's pose (X Y Z A B C)")
         elif letter in "IJKRP":
             arc_words[letter] = value
     for group, value in new.items():
-        setattr(state, group.replace(" ", "_"), value)
+        setattr(state, group, value)
     is_arc = state.motion in (2, 3)
     offsets = {k: v for k, v in arc_words.items() if k in "IJK"}
     if not is_arc and (offsets or "R" in arc_words):
@@ -322,15 +323,14 @@ def _line(
         fail("axis words without a motion mode (G0, G1, G2 or G3)")
     end = list(state.pose)
     for letter, value in axes.items():
-        k = AXES.index(letter)
+        k = _AXIS[letter]
         number = value * state.units if k < 3 else math.radians(value)
         end[k] = end[k] + number if state.distance else number
     arc = None
     if is_arc:
-        letters = _IN_PLANE[state.plane]
+        letters, plane_name = _PLANES[state.plane]
         if set(offsets) - set(letters):
-            wrong = "/".join(sorted(set(offsets) - set(letters)))
-            fail(f"{wrong} offset outside the arc plane {_PLANE_NAMES[state.plane]}")
+            fail(f"{'/'.join(sorted(set(offsets) - set(letters)))} offset outside the arc plane {plane_name}")
         if (not offsets) == ("R" not in arc_words):
             fail("an arc takes I J K offsets or an R radius (one of them)")
         if "R" in arc_words and not any(AXES[k] in axes for k in state.plane):
@@ -347,12 +347,12 @@ def _line(
     return end, anchor, drop - {anchor}, stop, arc
 
 
-def _head(text: str, spans: list[tuple[int, int]], anchor: int, drop: set[int]) -> tuple[str, str]:
+def _head(text: str, words: list[_Word], anchor: int, drop: set[int]) -> tuple[str, str]:
     """The line without the dropped words, split where the anchor word was."""
     parts, pos = [], 0
     for j in sorted(drop | {anchor}):
-        parts += [text[pos : spans[j][0]], "\0" if j == anchor else ""]
-        pos = spans[j][1]
+        parts += [text[pos : words[j][2]], "\0" if j == anchor else ""]
+        pos = words[j][3]
     before, after = "".join([*parts, text[pos:]]).split("\0")
     return before, (" " + after if after and not after[0].isspace() else after).rstrip()
 
@@ -365,12 +365,12 @@ def gcode_comment(text: str, most: int = 250) -> str:
     >>> gcode_comment("evil) M2 (\\n")
     '(evil\\\\x29 M2 \\\\x28\\\\x0a)'
     """
-    out = "".join(c if " " <= c <= "~" and c not in "()\\;" else _escape(ord(c)) for c in text)
+    out = "".join(c if " " <= c <= "~" and c not in "()\\;" else _escape(c) for c in text)
     return f"({out[: most - 3] + '...' if len(out) > most else out})"
 
 
-def _escape(code: int) -> str:
-    return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}"
+def _escape(c: str) -> str:
+    return f"\\x{ord(c):02x}" if c < "\x80" else ascii(c)[1:-1]  # \xNN, \uNNNN or \UNNNNNNNN
 
 
 class ProgramWriter:
@@ -393,7 +393,6 @@ class ProgramWriter:
         self.fh, self.header, self.decimals = fh, header, decimals
         angles = np.round(np.degrees(start[3:]), decimals[2])
         self.last = np.concatenate([np.round(start[:3], decimals[0]), angles])
-        self.lines = 0
 
     def _numbers(self, block: ProgramBlock, path: CorrectedPath) -> list[str]:
         """The six axis words of every output point, as written."""
@@ -446,5 +445,4 @@ class ProgramWriter:
                 out += [f"{indent}{word} {texts[j]}{sep}" for j in range(s + 1, s + c - 1)]
                 out.append(f"{indent}{word} {texts[s + c - 1]}{' ' + stops if stops else ''}{ending}")
             m += 1
-        self.lines += len(out)
         self.fh.write("".join(out))
