@@ -257,7 +257,8 @@ def _compensate_program(args: argparse.Namespace) -> None:
             try:
                 path = correct_path(geometry, nominal, block.moves, last, tol, angle_tol)
             except PathError as exc:
-                raise InputError(f"{args.gcode}: line {block.line_number(exc.move)}: {exc}") from None
+                line = block.first_line + int(block.move_lines[exc.move])
+                raise InputError(f"{args.gcode}: line {line}: {exc}") from None
             writer.write(block, path)
             if len(path.corrected):
                 last = path.corrected[-1]

@@ -13,11 +13,10 @@ a line with words, U V W, codes that change the frame or offset the path (G10 G2
 G53 G55-G59.3 G92, G41 G42 G43), canned cycles, splines, probing, threading, G93. Lines after
 M2/M30 or a closing ``%`` are copied unread, as LinuxCNC does not read them.
 
-:class:`ProgramWriter` writes every source line back unchanged except the moves: their axis
-words are replaced by the six corrected ones (in G91, increments between the written
-numbers, so no rounding accumulates), an arc becomes G1 lines, and a move cut into several
-segments becomes several lines, the first carrying the source line's other words and
-comments, the last its stop codes (M0 M1 M2 M30 M60, which act after the motion).
+:class:`ProgramWriter` writes every line back unchanged but the moves: their axis words become
+the six corrected ones (G91: increments between the written numbers, no rounding adds up),
+an arc becomes G1 lines, a move cut into segments several lines, the first with the line's
+other words and comments, the last with its stop codes (M0 M1 M2 M30 M60 act after motion).
 """
 
 from __future__ import annotations
@@ -46,14 +45,15 @@ AXES = "XYZABC"
 _NUMBER = r"[+-]?[ \t]*(?:\d[\d \t]*(?:\.[\d \t]*)?|\.[ \t]*\d[\d \t]*)"
 _WORD = re.compile(rf"([A-Za-z])[ \t]*({_NUMBER})")
 _CODE = re.compile(rf"[ \t]*(?:[A-Za-z][ \t]*{_NUMBER})*")  # a number takes its trailing blanks
-_TIGHT = re.compile(r"(([A-Za-z])([+-]?(?:\d+\.?\d*|\.\d+))[ \t]*)")
-_PLAIN = re.compile(r"[ \t]*(?:[A-Za-z][+-]?(?:\d+\.?\d*|\.\d+)[ \t]*)*")
+_TIGHT_NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)"  # no blanks inside
+_TIGHT = re.compile(rf"(([A-Za-z])({_TIGHT_NUMBER})[ \t]*)")
+_PLAIN = re.compile(rf"[ \t]*(?:[A-Za-z]{_TIGHT_NUMBER}[ \t]*)*")
+_FAST = re.compile(rf"([ \t]*)(?:[Gg]0*([01])(?![\d.])[ \t]*)?((?:[XYZABCxyzabc]{_TIGHT_NUMBER}[ \t]*)+)")
 _COMMENT = re.compile(r"\([^()]*\)|;.*|[()]")
 _LETTERS = set("ABCDFGHIJKLMNPQRSTUVWXYZ")
-_MOTION = {0: 0, 10: 1, 20: 2, 30: 3, 800: None}
-_PLANE = {170: (0, 1), 180: (2, 0), 190: (1, 2)}
 _PLANES = {(0, 1): ("IJ", "G17 (XY)"), (2, 0): ("KI", "G18 (ZX)"), (1, 2): ("JK", "G19 (YZ)")}
-_GROUPS = {"motion": _MOTION, "plane": _PLANE, "distance": {900: 0, 910: 1}}
+_GROUPS = {"motion": {0: 0, 10: 1, 20: 2, 30: 3, 800: None}, "plane": {170: (0, 1), 180: (2, 0), 190: (1, 2)}}
+_GROUPS |= {"distance": {900: 0, 910: 1}}
 _GROUPS |= {"arc_distance": {901: 0, 911: 1}, "units": {200: 25.4, 210: 1.0}}
 _BY_CODE = {code: (group, mode) for group, codes in _GROUPS.items() for code, mode in codes.items()}
 _AXIS = {letter: k for k, letter in enumerate(AXES)}
@@ -92,21 +92,13 @@ class _State:
 class ProgramBlock:
     """One block of a program: its source lines and the moves among them.
 
-    Attributes
-    ----------
-    first_line : int
-        Number (1-based) of ``lines[0]`` in the file; ``lines``: the source lines as read,
-        line endings included; ``chars``: characters read so far (for progress).
-    moves : Moves
-        The intended path of the block's moves (mm, rad).
-    move_lines : ndarray of int, shape (n,)
-        Block-local index of each move's line.
-    templates : list of tuple of str
-        Per move: the line before and after its new motion and axis words, the same without
-        its stop codes (the first line of a move cut into segments), the stop codes (for the
-        last line), and the motion word ``G0`` or ``G1``.
-    scale, incremental : ndarray, shape (n,)
-        Millimetres per program unit (1 or 25.4) and G91, per move.
+    ``first_line`` is the file's number (1-based) of ``lines[0]``; ``lines`` are the source lines
+    as read (endings included); ``moves`` the intended path (mm, rad) of the moves, on the
+    block-local lines ``move_lines``; per move, ``templates`` hold the line before and after its
+    new motion and axis words, the same without its stop codes (the first line of a move cut
+    into segments), the stop codes (for its last line) and the motion word ``G0`` or ``G1``;
+    ``scale`` is mm per program unit (1 or 25.4) and ``incremental`` G91; ``chars`` counts the
+    characters read so far (for progress). Move ``k`` is on line ``first_line + move_lines[k]``.
     """
 
     first_line: int
@@ -117,10 +109,6 @@ class ProgramBlock:
     scale: NDArray[np.float64]
     incremental: NDArray[np.bool_]
     chars: int
-
-    def line_number(self, move: int) -> int:
-        """The file's line number of move ``move`` of this block."""
-        return self.first_line + int(self.move_lines[move])
 
 
 def _arc_moves(name: str, first: int, lines: list[int], start: NDArray[np.float64],
@@ -203,10 +191,8 @@ def read_program(
     path : str or path-like
         A regular file (UTF-8 or ASCII).
     start : ndarray, shape (6,)
-        The pose (mm, rad) assumed before the first move: the values of the axes the
-        program has not set yet, and the start of its first move.
+        The pose (mm, rad) before the first move: the values of the axes not yet programmed.
     block_lines : int
-        Lines per block.
 
     Raises
     ------
@@ -246,6 +232,16 @@ def _block(name: str, first: int, lines: list[str], state: _State, chars: int) -
         if bare == "%":
             state.ended, state.started = state.started, True
             continue
+        fast = _FAST.fullmatch(text)  # the usual line: a G0/G1 move and nothing else
+        if fast and (fast[2] or state.motion in (0, 1)):
+            pairs = _TIGHT.findall(fast[3])
+            axes = {letter.upper(): float(number) for _, letter, number in pairs}
+            if len(axes) == len(pairs):  # else: an axis twice, said by the general reading
+                state.motion = int(fast[2]) if fast[2] else state.motion
+                state.pose = end = _end(state, axes)
+                word = "G0" if state.motion == 0 else "G1"
+                rows.append((end, i, (fast[1], "", fast[1], "", "", word), state.units, bool(state.distance)))
+                continue
 
         def fail(message: str, i: int = i) -> NoReturn:
             raise InputError(f"{name}: line {first + i}: {message}")
@@ -265,12 +261,10 @@ def _block(name: str, first: int, lines: list[str], state: _State, chars: int) -
         stops = " ".join(text[words[j][2] : words[j][3]].strip() for j in sorted(stop))
         template = (*head, *split, stops, "G0" if state.motion == 0 else "G1")
         rows.append((end, i, template, state.units, bool(state.distance)))
-    ends = np.array([r[0] for r in rows], dtype=float).reshape(-1, 6)
-    at = [r[1] for r in rows]
-    return ProgramBlock(
-        first, lines, _arc_moves(name, first, at, start, ends, arcs), np.array(at, dtype=np.intp),
-        [r[2] for r in rows], np.array([r[3] for r in rows]), np.array([r[4] for r in rows], bool), chars,
-    )  # fmt: skip
+    ends, at, templates, scale, incremental = (list(c) for c in zip(*rows, strict=True)) if rows else [[]] * 5
+    moves = _arc_moves(name, first, at, start, np.array(ends, dtype=float).reshape(-1, 6), arcs)
+    return ProgramBlock(first, lines, moves, np.array(at, dtype=np.intp), templates, np.array(scale),
+                        np.array(incremental, dtype=bool), chars)  # fmt: skip
 
 
 def _line(state: _State, words: list[_Word], fail: Callable[[str], NoReturn]) -> tuple | None:
@@ -321,11 +315,7 @@ def _line(state: _State, words: list[_Word], fail: Callable[[str], NoReturn]) ->
         return None
     if state.motion is None:
         fail("axis words without a motion mode (G0, G1, G2 or G3)")
-    end = list(state.pose)
-    for letter, value in axes.items():
-        k = _AXIS[letter]
-        number = value * state.units if k < 3 else math.radians(value)
-        end[k] = end[k] + number if state.distance else number
+    end = _end(state, axes)
     arc = None
     if is_arc:
         letters, plane_name = _PLANES[state.plane]
@@ -345,6 +335,16 @@ def _line(state: _State, words: list[_Word], fail: Callable[[str], NoReturn]) ->
     anchor = min(drop) if anchor is None else anchor
     state.pose = end
     return end, anchor, drop - {anchor}, stop, arc
+
+
+def _end(state: _State, axes: dict[str, float]) -> list[float]:
+    """The pose after a move to the axis words ``axes`` (program units, degrees)."""
+    end = list(state.pose)
+    for letter, value in axes.items():
+        k = _AXIS[letter]
+        number = value * state.units if k < 3 else math.radians(value)
+        end[k] = end[k] + number if state.distance else number
+    return end
 
 
 def _head(text: str, words: list[_Word], anchor: int, drop: set[int]) -> tuple[str, str]:
