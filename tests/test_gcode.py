@@ -25,6 +25,7 @@ from hexcal.cli.main import main
 from hexcal.core import compensate, preset
 from hexcal.core.path_compensation import (
     Moves,
+    PathError,
     correct_path,
     correct_poses,
     orientation_deviation,
@@ -366,7 +367,7 @@ def test_progress_lines_and_quiet(capsys, tmp_path, monkeypatch):
     from hexcal.io import gcode
 
     monkeypatch.setattr(gcode, "BLOCK_LINES", 3)
-    text = "".join(f"G1 X{k} Y0 Z800 F100\n" for k in range(30))
+    text = "(a block)\n(without)\n(moves)\n" + "".join(f"G1 X{k} Y0 Z800 F100\n" for k in range(27))
     _, _, err = filter_program(capsys, tmp_path, text)
     steps = re.findall(r"compensate: (\d+)% \((\d+) lines", err)
     percents = [int(p) for p, _ in steps]
@@ -461,3 +462,40 @@ def test_writing_with_the_exact_geometry_gives_the_program_back(tmp_path, progra
         ProgramWriter(fh, [], (5, 7, 6), HOME).write(block, path)
     again, _ = moves_of(out)
     assert_allclose(again.end, block.moves.end, atol=1e-5)
+
+
+def test_linuxcnc_angles_extrinsic_xyz(capsys, tmp_path):
+    """With --euler xyz the program's A B C are LinuxCNC's: the filtered program, run with both
+    machines in that sequence, still follows its moves' ends."""
+    out, _, _ = filter_program(capsys, tmp_path, "G1 X50 Y-40 Z820 A6 B-4 C8 F100\n", "--euler", "xyz")
+    true, nominal = TRUE.replace(euler="xyz"), NOMINAL.replace(euler="xyz")
+    start = correct_poses(true, nominal, HOME[None], np.array([0]))[0]
+    commanded, _ = moves_of(out, start)
+    target = np.array([50, -40, 820, *np.radians([6, -4, 8])])
+    reached = reached_poses(true, nominal, commanded.end[-1:], target[None])[0]
+    assert np.linalg.norm(reached[:3] - target[:3]) < 2e-5
+    assert orientation_deviation(reached, target, "xyz") < 1e-7
+    wrong = reached_poses(TRUE, NOMINAL, commanded.end[-1:], target[None])[0]  # read as intrinsic XYZ
+    assert orientation_deviation(wrong, target, "XYZ") > 1e-3
+
+
+def test_the_output_cannot_be_the_program(capsys, tmp_path):
+    source = tmp_path / "p.ngc"
+    source.write_text("G1 X1 Y1 Z800 F10\n")
+    before = source.read_bytes()
+    message = one_error(capsys, *program_args(source, source))
+    assert "also an input" in message and source.read_bytes() == before
+
+
+def test_targets_outside_the_workspace_box_are_named_by_line(capsys, tmp_path):
+    _, _, err = filter_program(capsys, tmp_path, "G1 X0 Y0 Z800 F10\nX280\nX0\n", "--quiet")
+    warnings = [line for line in err.splitlines() if "outside the workspace box" in line]
+    assert warnings and warnings[0].endswith("1 target(s) of the program outside the workspace box: line 2")
+
+
+def test_a_target_the_nominal_controller_cannot_reach_is_named():
+    # leg 1 3 m longer than the others: no pose of the nominal machine has such legs
+    far = NOMINAL.replace(initial_leg_lengths=NOMINAL.initial_leg_lengths + [3000.0, 0, 0, 0, 0, 0])
+    with pytest.raises(PathError, match="forward kinematics does not converge") as caught:
+        correct_poses(TRUE, far, np.array([HOME, HOME + [10, 0, 0, 0, 0, 0]]), np.array([4, 7]))
+    assert caught.value.move == 4
