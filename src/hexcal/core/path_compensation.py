@@ -10,8 +10,8 @@ parameter). The controller interpolates its commands linearly, so the real machi
 between two corrected points ``C(p0)``, ``C(p1)``, where ``C`` is the correction of
 :func:`hexcal.core.compensate` (``IK_nominal(C(p))`` produces the readings that bring the
 calibrated machine to ``p``). ``C`` is not linear, so ``r`` leaves the intended path
-``p(t)`` between the points; :func:`correct_path` bisects each move until it does not (the
-criterion: :func:`correct_path`'s Notes). Pure numpy on top of :mod:`hexcal.core`.
+``p(t)`` between the points; :func:`correct_path` subdivides each move until it does not
+(the criterion: :func:`correct_path`'s Notes). Pure numpy on top of :mod:`hexcal.core`.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from hexcal.errors import ValidationError
 #: rounding of the written numbers and the asymmetry of the deviation within a segment.
 CHECK_SHARE = 0.9
 
-#: Most halvings of one move (a segment of 2⁻⁴⁰ of it is far below any tolerance).
+#: Most rounds of subdivision of one move (each cuts a failed segment into 2 parts or more).
 MAX_DEPTH = 40
 
 #: Most segments one block of moves may be cut into (bounds the memory of a block).
@@ -271,6 +271,7 @@ def _deviation(
         step = np.linalg.solve(jac, (lengths - at)[..., None])[..., 0]
     except np.linalg.LinAlgError:  # a singular pose: its deviation is unknown, so too large
         step = np.einsum("...ij,...j->...i", np.linalg.pinv(jac), lengths - at)
+        step[np.linalg.matrix_rank(jac) < 6] = np.inf
     step = np.where(np.isfinite(step), step, np.inf)
     position = np.linalg.norm(step[:, :3], axis=1)
     orientation = np.where(
