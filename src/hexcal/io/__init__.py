@@ -9,7 +9,8 @@ Modules: :mod:`~hexcal.io.outputs` (:class:`OutputSet`: a command's outputs chec
 front, staged and committed all together), :mod:`~hexcal.io.inputs` (regular files only,
 row limits, YAML with limits), :mod:`~hexcal.io.files` (atomic writes, JSON),
 :mod:`~hexcal.io.geometry_file` (YAML geometries), :mod:`~hexcal.io.tables` (CSV, whole or in
-blocks), :mod:`~hexcal.io.measurement_files` (pose, measurement and leg files).
+blocks), :mod:`~hexcal.io.measurement_files` (pose, measurement and leg files),
+:mod:`~hexcal.io.gcode` (G-code programs, read and written in blocks).
 Imports every layer below it; only ``io`` and ``cli`` touch files.
 """
 
@@ -41,6 +42,8 @@ __getattr__, __dir__, __all__ = attach(
         "ORIENTATION_GROUPS": "measurement_files",
         "OutputError": "outputs",
         "OutputSet": "outputs",
+        "ProgramBlock": "gcode",
+        "ProgramWriter": "gcode",
         "QUATERNION_NORM_TOLERANCE": "measurement_files",
         "STDOUT": "outputs",
         "Table": "tables",
@@ -57,6 +60,7 @@ __getattr__, __dir__, __all__ = attach(
         "check_input": "inputs",
         "euler_warning": "linuxcnc",
         "export_linuxcnc": "linuxcnc",
+        "gcode_comment": "gcode",
         "import_linuxcnc": "linuxcnc_import",
         "iter_legs": "measurement_files",
         "iter_poses": "measurement_files",
@@ -74,6 +78,7 @@ __getattr__, __dir__, __all__ = attach(
         "read_matrix": "tables",
         "read_measurements": "measurement_files",
         "read_poses": "measurement_files",
+        "read_program": "gcode",
         "read_table": "tables",
         "read_target_measurements": "target_files",
         "read_text": "inputs",
