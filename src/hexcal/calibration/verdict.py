@@ -342,7 +342,7 @@ def assess(
         )
     verdict = Verdict(tuple(reasons), acc)
     if diagnose is not None:
-        extra = diagnose(verdict.status != "pass" or result.flagged != ())
+        extra = diagnose(verdict.status == "fail")
         verdict = Verdict(tuple(reasons) + tuple(extra), acc)
     return verdict
 

@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 
 from hexcal.core.linalg import numerical_rank
 from hexcal.core.noise import NoiseModel
-from hexcal.errors import IdentificationError
+from hexcal.errors import HexcalError, IdentificationError
 from hexcal.estimation.problem import Problem
 
 #: Smallest σ of each group (mm for lengths, rad for angles): a group with ~zero variance
@@ -225,15 +225,23 @@ def group_statistics(
     return _statistics(problem, inner, _solver_variables(problem, result), problem_groups(problem))[0]
 
 
+#: Largest change of a σ in one variance-component step (a factor either way).
+_MAX_RATIO = 10.0
+
+
 def _helmert_ratio(stats: GroupStatistics, estimated: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """Helmert's update ``α = M⁻¹ Ω`` of the variance ratios (``σ_new = sqrt(α) σ``); a
-    negative ratio (a group with no noise) is 0, floored by the caller."""
+    """Helmert's update ``α = M⁻¹ Ω`` of the variance ratios (``σ_new = sqrt(α) σ``), at most
+    a factor :data:`_MAX_RATIO` either way per step: a ratio at or below zero (a group with no
+    noise, or groups the data hardly tell apart) shrinks the σ by that factor instead of
+    dropping it to its floor in one step, from where the next step would overshoot."""
     ratio = np.ones(len(stats.groups))
     if stats.helmert is None:
         return stats.ratio
     sub = stats.helmert[np.ix_(estimated, estimated)]
     alpha = np.linalg.lstsq(sub, stats.omega[estimated], rcond=None)[0]
-    ratio[estimated] = np.sqrt(np.maximum(alpha, 0.0))
+    if not np.all(np.isfinite(alpha)):  # Förstner's ratio Ω_g / r_g: the same fixed point
+        alpha = stats.omega[estimated] / stats.redundancy[estimated]
+    ratio[estimated] = np.sqrt(np.clip(alpha, 1 / _MAX_RATIO**2, _MAX_RATIO**2))
     return ratio
 
 
@@ -365,7 +373,15 @@ def estimate_noise(
         if poses is not None:
             for part, own in zip(inner.parts, poses, strict=True):
                 part.poses = own
-        stats, e, jac = _statistics(problem, inner, x, keys)
+        try:
+            stats, e, jac = _statistics(problem, inner, x, keys)
+        except (np.linalg.LinAlgError, FloatingPointError, HexcalError):
+            # the last Gauss–Newton step left the basin (a large change of the weights moved
+            # the optimum far): a full fit under the current variances instead
+            current = _session_noises(keys, sigmas, n_sessions)
+            x = _solver_variables(problem, fit_ml(problem, current, **options))
+            inner = Projection(problem, current)
+            stats, e, jac = _statistics(problem, inner, x, keys)
         if stats.keys != keys:
             raise IdentificationError("variance components need a diagonal instrument covariance")
         poses = [part.poses for part in inner.parts]
