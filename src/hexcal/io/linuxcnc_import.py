@@ -19,6 +19,7 @@ from hexcal.io.linuxcnc import (
     GENHEXKINS_DEFAULT_BASE,
     GENHEXKINS_DEFAULT_PLATFORM,
     LINUXCNC_EULER,
+    NUMBER,
     LinuxCNCFormatError,
 )
 
@@ -33,8 +34,6 @@ _LINEAR_UNITS = {
     "inches": 25.4,
 }
 _COORD = re.compile(r"genhexkins\.(base|platform)\.(\d+)\.([xyz])")
-# a number as C's strtod reads it, without hex, inf and nan
-_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
 _INI_REF = re.compile(r"\[([^\]\s]+)\]([^\s\[\]]+)")
 
 
@@ -64,7 +63,7 @@ class IniFile:
 
 
 def _parse_number(text: str, file: str, line: int, what: str) -> float:
-    if not _NUMBER.fullmatch(text):
+    if not NUMBER.fullmatch(text):
         raise LinuxCNCFormatError(f"{file}: line {line}: {what}: {text!r} is not a number")
     value = float(text)
     if not math.isfinite(value):
