@@ -13,13 +13,17 @@ inside the commands, so that ``hexcal --help`` stays fast. Known failures raise
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import sys
 from pathlib import Path
 from typing import Any
 
 from hexcal.cli.common import GEOMETRY_HELP, CommandError
+
+#: The files ``export linuxcnc`` writes into its ``--out`` folder (``hexcal.io.linuxcnc``'s
+#: ``HAL_FILE`` and ``INI_FILE``, spelled here so that the parser needs no numpy; a test
+#: checks that they agree).
+EXPORT_FILES = ("hexcal-kins.hal", "hexcal-joints.ini")
 
 
 def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
@@ -30,7 +34,13 @@ def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
     p.add_argument(
         "--out", required=True, help="folder for hexcal-kins.hal and hexcal-joints.ini (created if missing)"
     )
-    p.set_defaults(func=cmd_export, inputs=("geometry",), outputs=(), folders=())
+    p.set_defaults(
+        func=cmd_export,
+        inputs=("geometry",),
+        outputs=(),
+        folders=("out",),
+        folder_files={"out": EXPORT_FILES},
+    )
 
     p = sub.add_parser("import", help="a geometry from a controller's configuration (LinuxCNC genhexkins)")
     p.add_argument("target", choices=("linuxcnc",), help="controller format")
@@ -68,57 +78,15 @@ def _read_text(path: str, what: str) -> str:
         raise CommandError(f"{path}: cannot read: {exc}") from None
 
 
-def write_all_or_nothing(folder: Path, files: dict[str, str]) -> None:
-    """Write ``files`` (name -> text) into ``folder``: all of them, or none changed.
-
-    Each text goes to a temporary file in ``folder`` first; then all are renamed into
-    place. Should a rename fail, the files already replaced get their old contents back
-    (kept as hard links) and the new ones are removed.
-    """
-    temps: dict[str, str] = {}
-    backups: dict[str, str] = {}
-    done: list[str] = []
-    try:
-        for name, text in files.items():
-            import tempfile  # deferred: commands import what they use (fast --help)
-
-            fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=".tmp", dir=folder)
-            temps[name] = tmp
-            with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-                fh.write(text)
-            mask = os.umask(0)
-            os.umask(mask)
-            os.chmod(tmp, 0o666 & ~mask)
-        for name in files:
-            target = folder / name
-            if target.exists():
-                import secrets
-
-                backup = str(folder / f".{name}.{os.getpid()}.{secrets.token_hex(6)}.old")
-                os.link(target, backup)  # fails, rather than overwrites, if the name exists
-                backups[name] = backup
-        for name, tmp in temps.items():
-            os.replace(tmp, folder / name)
-            done.append(name)
-    except BaseException:
-        for name in done:  # undo the renames already made
-            with contextlib.suppress(OSError):
-                if name in backups:
-                    os.replace(backups.pop(name), folder / name)
-                else:
-                    os.unlink(folder / name)
-        for path in (*temps.values(), *backups.values()):
-            with contextlib.suppress(OSError):
-                os.unlink(path)
-        raise
-    for backup in backups.values():
-        with contextlib.suppress(OSError):
-            os.unlink(backup)
-
-
 def cmd_export(args: argparse.Namespace) -> None:
+    """Write ``hexcal-kins.hal`` and ``hexcal-joints.ini`` through the command's output set.
+
+    The two files are declared outputs of the command (``folder_files``): checked before the
+    work like every output (an input, a FIFO, a read-only or hard-linked file is refused; a
+    symbolic link is written through; a replaced file keeps its mode) and committed together.
+    """
     from hexcal.core.presets import PRESETS
-    from hexcal.io import load_geometry
+    from hexcal.io import check_input, load_geometry, write_text
     from hexcal.io.linuxcnc import euler_warning, export_linuxcnc
 
     geometry = load_geometry(args.geometry)
@@ -126,6 +94,7 @@ def cmd_export(args: argparse.Namespace) -> None:
         source, sha256, date = f"built-in preset {args.geometry}", None, None
     else:
         path = Path(args.geometry)
+        check_input(path)
         data = path.read_bytes()
         import datetime
         import hashlib
@@ -135,26 +104,9 @@ def cmd_export(args: argparse.Namespace) -> None:
         source, date = str(path), mtime.strftime("%Y-%m-%dT%H:%M:%SZ")
     files = export_linuxcnc(geometry, source=source, source_sha256=sha256, source_date=date)
     folder = Path(args.out)
-    if folder.exists() and not folder.is_dir():
-        raise CommandError(f"{folder}: is a file, not a folder")
-    if not folder.exists():
-        parent = folder.parent if str(folder.parent) else Path(".")
-        if not parent.is_dir():
-            raise CommandError(f"{folder}: the folder {parent} does not exist")
-    if args.geometry not in PRESETS:
-        for name in files:
-            if _same_file(folder / name, Path(args.geometry)):
-                raise CommandError(f"{folder / name}: is the input geometry; choose another --out")
+    for name, text in files.items():
+        write_text(folder / name, text)
     warning = euler_warning(geometry)
-    created = not folder.exists()
-    folder.mkdir(exist_ok=True)
-    try:
-        write_all_or_nothing(folder, files)
-    except BaseException:
-        if created:
-            with contextlib.suppress(OSError):
-                folder.rmdir()
-        raise
     if warning:
         _warn(warning)
     print(f"wrote {', '.join(str(folder / name) for name in files)}")

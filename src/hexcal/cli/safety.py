@@ -224,18 +224,49 @@ def _names(args: argparse.Namespace, attr: str) -> list[str]:
     return out
 
 
+#: The files that commands whose ``register`` does not declare ``folder_files`` write into
+#: their ``--out`` folder (until it does: ``cli/simulate.py``).
+FOLDER_FILES: dict[str, dict[str, tuple[str, ...]]] = {
+    "simulate": {"out": ("study.json", "study.csv", "study.png")},
+    "paper": {"out": ("table1.json", "fig10_parameter_errors.png", "fig11_validation_errors.png")},
+}
+
+
+def declared_files(args: argparse.Namespace) -> tuple[list[str], list[str], list[str]]:
+    """The inputs, outputs and folders a command declares (``set_defaults`` in ``register``).
+
+    - ``inputs``, ``outputs``, ``folders``: names of options holding a path (or a list);
+    - ``input_lists``: option name -> a function listing the files named inside its value
+      (``--candidates corners+poses.csv`` names ``poses.csv``): inputs too;
+    - ``folder_files``: folder option name -> the fixed file names the command writes into
+      that folder (``--out DIR`` of ``simulate``: ``DIR/study.json``...): outputs too, so
+      that each is checked (a FIFO, a read-only file, an input) before any work.
+    """
+    values = vars(args)
+    inputs = _names(args, "inputs")
+    for dest, files in (values.get("input_lists") or {}).items():
+        if isinstance(values.get(dest), str):
+            inputs += [os.fspath(f) for f in files(values[dest])]
+    outputs = _names(args, "outputs")
+    folder_files = values.get("folder_files") or FOLDER_FILES.get(values.get("command") or "", {})
+    for dest, names in folder_files.items():
+        if values.get(dest) is not None:
+            outputs += [os.path.join(os.fspath(values[dest]), name) for name in names]
+    return inputs, outputs, _names(args, "folders")
+
+
 @contextlib.contextmanager
 def command_outputs(args: argparse.Namespace) -> Iterator[Any]:
     """The command's output set: checked now, active and capturing stdout while it runs."""
     from hexcal.io import OutputSet, check_input
 
     real = sys.stdout
-    inputs = _names(args, "inputs")
+    inputs, declared, folders = declared_files(args)
     for name in inputs:  # FIFOs and devices refused at once, whichever reader comes later
         if os.path.lexists(name):
             check_input(name)
-    outputs = OutputSet(_names(args, "outputs"), inputs=inputs, stdout=real)
-    for folder in _names(args, "folders"):
+    outputs = OutputSet(declared, inputs=inputs, stdout=real)
+    for folder in folders:
         outputs.folder(folder)
     with outputs:
         outputs.check()
