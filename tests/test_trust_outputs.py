@@ -98,3 +98,95 @@ def test_export_refuses_to_write_over_its_input_through_a_link(exported, capsys)
     (exported / "lc" / HAL_FILE).unlink()
     (exported / "lc" / HAL_FILE).symlink_to(exported / "cal.yaml")
     assert "also an input" in _refused(capsys, exported, exported / "cal.yaml")
+
+
+# -- files named inside an option's value, files inside an --out folder ------------------------
+@pytest.fixture
+def poses(tmp_path, monkeypatch, capsys) -> Path:
+    """A pose file in the current folder (``p.csv``), made by hexcal."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["candidates", "--geometry", "paper-hmt", "--candidates", "random:30", "--out", "p.csv"]
+    assert main(argv) == 0
+    capsys.readouterr()
+    return tmp_path / "p.csv"
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["candidates", "--geometry", "paper-hmt", "--candidates", "corners+p.csv", "--out", "p.csv"],
+        ["candidates", "--geometry", "paper-hmt", "--candidates", " p.csv ", "--out", "./p.csv"],
+        ["select", "--geometry", "paper-hmt", "--candidates", "p.csv", "--out", "p.csv"],
+        [
+            "select",
+            "--geometry",
+            "paper-hmt",
+            "--candidates",
+            "grid:2+p.csv",
+            "--out",
+            "s.csv",
+            "--json",
+            "p.csv",
+        ],
+    ],
+)
+def test_an_output_naming_a_file_of_the_candidate_spec_is_refused(capsys, poses, argv):
+    before = poses.read_bytes()
+    status, out, err = _run(capsys, *argv)
+    lines = err.strip().splitlines()
+    assert status == 1 and out == "" and len(lines) == 1, err
+    assert "this output is also an input" in lines[0] and "p.csv" in lines[0]
+    assert poses.read_bytes() == before and sorted(os.listdir(poses.parent)) == ["p.csv"]
+
+
+def _boom(*_args, **_kw):
+    raise AssertionError("the command started its work before refusing an output")
+
+
+SIMULATE = ["simulate", "--trials", "2", "--methods", "length", "--strategies", "corners", "--quiet"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "name"),
+    [
+        ([*SIMULATE, "--out", "res"], "study.json"),
+        ([*SIMULATE, "--out", "res"], "study.png"),
+        (["paper", "--trials", "2", "--quiet", "--out", "res"], "table1.json"),
+        (["paper", "--trials", "2", "--quiet", "--out", "res"], "fig11_validation_errors.png"),
+        (["study", "selection", "--trials", "2", "--poses", "8", "--quiet", "--out", "res"], "selection.csv"),
+        (["errormap", "--geometry", "paper-hmt", "--draws", "2", "--out", "res"], "claims.json"),
+        (["errormap", "--geometry", "paper-hmt", "--draws", "2", "--out", "res"], "errormap_b-c.csv"),
+        (["export", "linuxcnc", "--geometry", "paper-hmt", "--out", "res"], INI_FILE),
+    ],
+)
+@pytest.mark.parametrize("kind", ["fifo", "read-only"])
+def test_a_bad_file_inside_the_out_folder_is_refused_before_any_work(
+    capsys, tmp_path, monkeypatch, argv, name, kind
+):
+    import hexcal.io
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "res").mkdir()
+    if kind == "fifo":
+        os.mkfifo(tmp_path / "res" / name)
+    else:
+        (tmp_path / "res" / name).write_text("kept\n")
+        os.chmod(tmp_path / "res" / name, 0o444)
+    monkeypatch.setattr(hexcal.io, "load_geometry", _boom)  # every command loads a geometry first
+    status, out, err = _run(capsys, *argv)
+    lines = err.strip().splitlines()
+    assert status == 1 and out == "" and len(lines) == 1 and lines[0].startswith("hexcal: error: "), err
+    assert name in lines[0] and ("FIFO" in lines[0] if kind == "fifo" else "read-only" in lines[0])
+    assert os.listdir(tmp_path / "res") == [name]
+    if kind == "read-only":
+        assert (tmp_path / "res" / name).read_text() == "kept\n"
+
+
+def test_two_outputs_of_one_command_on_one_file_are_refused_up_front(capsys, tmp_path, monkeypatch):
+    import hexcal.io
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(hexcal.io, "load_geometry", _boom)
+    status, _, err = _run(capsys, "paper", "--trials", "2", "--out", "res", "--html", "res/table1.json")
+    assert status == 1 and "two outputs name the same file" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "res").exists()

@@ -232,6 +232,18 @@ def _candidate_kind(token: str, geometry: Any, rng: Any) -> tuple[Any, list[str]
     return poses, [f"{CANDIDATE_PREFIXES[kind]}{k:0{width}d}" for k in range(len(poses))]
 
 
+def candidate_files(spec: str) -> list[str]:
+    """The files a ``--candidates`` spec names (every token that is not a built-in kind).
+
+    Declared as inputs of the command's output set, so that no output may replace one.
+
+    >>> candidate_files("corners+grid:3+poses.csv+random:10+more.csv")
+    ['poses.csv', 'more.csv']
+    """
+    tokens = [t.strip() for t in spec.split("+") if t.strip()]
+    return [t for t in tokens if t.partition(":")[0] not in CANDIDATE_PREFIXES]
+
+
 def candidate_spec(spec: str, geometry: Any, seed: int) -> tuple[Any, list[str]]:
     """Candidate poses and ids of a spec like ``corners+grid:3+random:1000+file.csv``."""
     from pathlib import Path

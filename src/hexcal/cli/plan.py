@@ -25,6 +25,7 @@ from hexcal.cli.common import (
     GEOMETRY_HELP,
     NOISE_HELP,
     CommandError,
+    candidate_files,
     candidate_spec,
     check_outputs,
     choice,
@@ -49,6 +50,14 @@ ERRORMAP_FIGURES = {
     "a-c": "fig8_a-c.png",
     "b-c": "fig9_b-c.png",
 }
+
+#: Every file ``hexcal errormap`` writes into its ``--out`` folder: the figures, the tables
+#: of :func:`hexcal.report.errormap_tables` and the claims.
+ERRORMAP_FILES = (
+    *ERRORMAP_FIGURES.values(),
+    *(f"errormap_{name}.csv" for name in (*ERRORMAP_FIGURES, "corners", "interior")),
+    "claims.json",
+)
 
 CANDIDATES_HELP = "corners, grid[:L], edges[:L], random:N, FILE; join with +"
 FIT_HELP = "parameter groups: joints, base, platform, l0, gains"
@@ -374,7 +383,13 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--euler", help=EULER_HELP)
-    p.set_defaults(func=cmd_errormap, inputs=("geometry",), outputs=(), folders=("out",))
+    p.set_defaults(
+        func=cmd_errormap,
+        inputs=("geometry",),
+        outputs=(),
+        folders=("out",),
+        folder_files={"out": ERRORMAP_FILES},
+    )
 
     p = sub.add_parser("observability", help="observability indices and predicted accuracy of a pose set")
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
@@ -409,7 +424,13 @@ def register(sub: Any) -> None:
     p.add_argument("--min-distance", type=float, help="minimum singularity distance (default 0.05)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--euler", help=EULER_HELP)
-    p.set_defaults(func=cmd_candidates, inputs=("geometry",), outputs=("out",), folders=())
+    p.set_defaults(
+        func=cmd_candidates,
+        inputs=("geometry",),
+        input_lists={"candidates": candidate_files},
+        outputs=("out",),
+        folders=(),
+    )
 
     p = sub.add_parser("select", help="select optimal measurement poses (greedy + exchange)")
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
@@ -433,6 +454,12 @@ def register(sub: Any) -> None:
     p.add_argument("--no-exchange", action="store_true", help="greedy selection only")
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: poses optimal for it")
-    p.set_defaults(func=cmd_select, inputs=("geometry", "setup"), outputs=("out", "json", "html"), folders=())
+    p.set_defaults(
+        func=cmd_select,
+        inputs=("geometry", "setup"),
+        input_lists={"candidates": candidate_files},
+        outputs=("out", "json", "html"),
+        folders=(),
+    )
     for name in ("errormap", "observability", "candidates", "select"):
         show_defaults(sub.choices[name])
