@@ -77,6 +77,8 @@ def parse_noise(text: str | None, distribution: str = "uniform") -> NoiseModel:
         key = key.strip()
         if not sep or key not in keys:
             raise CommandError(f"--noise: cannot read {item!r}; write e.g. leg=0.01,pos=0.025,ang=0.001")
+        if keys[key] in values:
+            raise CommandError(f"--noise: {key} is given twice; give each of leg, pos and ang once")
         try:
             number = float(value)
         except ValueError:

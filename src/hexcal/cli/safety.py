@@ -51,6 +51,14 @@ BOUND_COMMANDS = ("identify", "observability", "select", "simulate", "paper")
 #: of each method: a few hundred numbers).
 TRIAL_BYTES = 2048
 
+#: Campaign kinds per cell of a Monte Carlo command that no option counts: ``study
+#: selection`` runs three pose strategies (interior, corners, selected) per pose count.
+TRIAL_KINDS = {"study": 3}
+
+#: Comma-separated list options of each command, each value given once (a repeated value
+#: would only repeat rows of the results).
+LIST_OPTIONS = {"simulate": ("poses", "methods", "strategies", "noise_levels"), "study": ("poses",)}
+
 #: Fewest poses of a simulated campaign: 42 kinematic parameters, 6 leg equations per pose.
 SIMULATE_MIN_POSES = 7
 
@@ -126,6 +134,29 @@ def _budget(option: str, size: int, what: str) -> None:
         )
 
 
+def _same_value(text: str) -> Any:
+    """The value a list item stands for (``8`` and ``08`` are one pose count)."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def _check_lists(values: dict[str, Any]) -> None:
+    """Refuse a value given twice in a comma-separated list option (``--poses 8,8``)."""
+    for dest in LIST_OPTIONS.get(values.get("command") or "", ()):
+        text = values.get(dest)
+        if not isinstance(text, str):
+            continue
+        seen: dict[Any, str] = {}
+        for item in (t.strip() for t in text.split(",") if t.strip()):
+            key = _same_value(item)
+            if key in seen:
+                same = "" if seen[key] == item else f" (as {seen[key]})"
+                raise CommandError(f"{_option(dest)}: {item} is given twice{same}; give each value once")
+            seen[key] = item
+
+
 def check_options(args: argparse.Namespace) -> None:
     """Refuse nonsense values of the common options, and sizes over the memory budget."""
     values = vars(args)
@@ -177,10 +208,12 @@ def check_options(args: argparse.Namespace) -> None:
         )
         option = "--grid" if (values.get("grid") or 1) ** 2 >= points else "--levels/--points"
         _budget(option, 48 * 4 * draws * points, "the error maps")
+    _check_lists(values)
     trials = values.get("trials")
-    if isinstance(trials, int) and values.get("command") in ("paper", "simulate"):
-        cells = 1
-        for dest in ("poses", "methods", "strategies", "noise_levels"):
+    if isinstance(trials, int):  # every Monte Carlo command: paper, simulate, study
+        command = values.get("command") or ""
+        cells = TRIAL_KINDS.get(command, 1)
+        for dest in LIST_OPTIONS.get(command, ("methods", "strategies", "noise_levels")):
             if isinstance(values.get(dest), str):
                 cells *= len([t for t in values[dest].split(",") if t.strip()]) or 1
         _budget("--trials", TRIAL_BYTES * trials * cells, f"{trials:,} trials of {cells} campaign kind(s)")
