@@ -55,6 +55,39 @@ def _distinct(joints: NDArray[np.float64], what: str, prefix: str) -> None:
         )
 
 
+#: Joints of one frame all within this fraction of their spread from one line are collinear:
+#: refused (such a frame turns about that line with no leg length changing).
+COLLINEAR_TOLERANCE = 1e-6
+
+
+def _not_collinear(joints: NDArray[np.float64], what: str) -> None:
+    centred = joints - joints.mean(axis=0)
+    spread = float(np.linalg.norm(centred, axis=1).max())
+    direction = np.linalg.svd(centred)[2][0]
+    off_line = float(np.linalg.norm(centred - np.outer(centred @ direction, direction), axis=1).max())
+    if off_line <= COLLINEAR_TOLERANCE * max(1.0, spread):
+        frame = "platform" if what.startswith("platform") else "base"
+        raise GeometryError(
+            f"{what}: the six joints lie on one line; a {frame} whose joints are collinear turns "
+            "about that line with no leg length changing, so no pose of this machine can be solved"
+        )
+
+
+#: Largest angle of a workspace range, rad: the angles of a pose are defined within ±180°.
+MAX_WORKSPACE_ANGLE = np.pi * (1 + 1e-12)
+
+
+def _angle_ranges(box: NDArray[np.float64]) -> None:
+    bad = np.flatnonzero(np.abs(box[3:]).max(axis=1) > MAX_WORKSPACE_ANGLE)
+    if bad.size:
+        k = int(bad[0]) + 3
+        lo, hi = np.rad2deg(box[k])
+        raise GeometryError(
+            f"workspace: {POSE_NAMES[k]} ranges over [{lo:.6g}, {hi:.6g}] degrees, beyond ±180 degrees; "
+            "give angle ranges within [-180, 180] degrees"
+        )
+
+
 @dataclass(frozen=True, eq=False)
 class Geometry:
     """Kinematic geometry of a 6-6 hexapod.
@@ -116,6 +149,7 @@ class Geometry:
             box = _frozen(self.workspace, (6, 2), "workspace")
             if np.any(box[:, 0] > box[:, 1]):
                 raise GeometryError("workspace ranges must be [low, high] with low <= high")
+            _angle_ranges(box)
             put(self, "workspace", box)
         if self.calibration is not None:
             put(self, "calibration", copy.deepcopy(dict(self.calibration)))
@@ -130,8 +164,10 @@ class Geometry:
         """Refuse a geometry that no machine can have (:class:`GeometryError`, one line).
 
         Beyond the checks of construction (finite values, shapes, positive gains and initial
-        lengths, ``0 < min < max`` leg limits, ordered workspace): every joint distinct from
-        the other joints of its frame (within :data:`JOINT_SEPARATION`), and the home pose
+        lengths, ``0 < min < max`` leg limits, ordered workspace with angle ranges within
+        ±180°): every joint distinct from the other joints of its frame (within
+        :data:`JOINT_SEPARATION`), the joints of each frame not all on one line (within
+        :data:`COLLINEAR_TOLERANCE` of their spread), and the home pose
         inside the workspace box and within the leg length limits. Applied to every geometry
         file that hexcal loads; not at construction, where intermediate or synthetic
         geometries (tests, Monte Carlo draws) may legitimately break them.
@@ -141,6 +177,8 @@ class Geometry:
         """
         _distinct(self.base_joints, "base_joints", "u")
         _distinct(self.platform_joints, "platform_joints", "s")
+        _not_collinear(self.base_joints, "base_joints")
+        _not_collinear(self.platform_joints, "platform_joints")
         home = self.home_pose
         if home is None:
             return
