@@ -125,6 +125,7 @@ def _parse_home(text: str) -> list[float]:
 
 
 def cmd_import(args: argparse.Namespace) -> None:
+    from hexcal.errors import GeometryError
     from hexcal.io import save_geometry
     from hexcal.io.linuxcnc_import import import_linuxcnc
 
@@ -141,6 +142,11 @@ def cmd_import(args: argparse.Namespace) -> None:
     geometry, warnings = import_linuxcnc(
         hal_text, ini_text, hal_name=args.hal, ini_name=args.ini or "INI file", home_pose=home, name=args.name
     )
+    try:  # the rules of every geometry hexcal reads: never write one it would refuse to load
+        geometry.check_plausible()
+    except GeometryError as exc:
+        files = f"{args.hal} and {args.ini}" if args.ini else args.hal
+        raise CommandError(f"{files}: hexcal cannot use the machine they describe: {exc}") from None
     save_geometry(geometry, out)
     for warning in warnings:
         _warn(warning)
