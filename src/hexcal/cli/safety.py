@@ -1,9 +1,12 @@
 """What every command gets from :func:`hexcal.cli.main.main`, without a line of its own.
 
-- **Signals**: SIGINT raises :class:`KeyboardInterrupt`, SIGTERM :class:`Terminated` (a
-  subclass, so that every ``except KeyboardInterrupt`` cleans up for both: the simulation
-  runner terminates its workers, the output set removes its staged files); a second signal
-  during the clean-up is ignored.
+- **Signals**: SIGINT raises :class:`KeyboardInterrupt`, SIGTERM and SIGHUP (a closed
+  terminal or SSH session) :class:`Terminated` (a subclass, so that every ``except
+  KeyboardInterrupt`` cleans up for all three: the simulation runner terminates its workers,
+  the output set removes its staged files); a second signal during the clean-up is ignored.
+  The exit status is 128 + the signal's number (:data:`SIGNALS`). A SIGHUP ignored when
+  hexcal starts (``nohup``) stays ignored; a forked child (a pool worker) that inherits the
+  handlers ends at once on a signal, as by default.
 - **Options**: counts positive, ``--jobs`` not negative (0 = all cores), tolerances finite and
   positive, ``--max-rows`` positive, and sizes within :data:`MEMORY_BUDGET` before anything
   is allocated (:func:`check_options`).
@@ -67,28 +70,48 @@ SIMULATE_MIN_POSES = 7
 FK_MAX_TOL = 1e-3
 
 #: Exit status of a usage error (a malformed command line: unknown option, missing value,
-#: a value of the wrong type); every other error exits 1, a signal 130 (SIGINT) or 143
-#: (SIGTERM).
+#: a value of the wrong type); every other error exits 1, a signal 128 + its number
+#: (:data:`SIGNALS`).
 USAGE_STATUS = 2
+
+#: The signals that end a command, and the word of the line each ends it with; the exit
+#: status is 128 + the signal's number: 130 (SIGINT), 143 (SIGTERM), 129 (SIGHUP).
+SIGNALS = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated", signal.SIGHUP: "hung up"}
+
+#: The process that installed the handlers (a forked child inherits them, not this).
+_owner = {"pid": 0}
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised in the main thread (a KeyboardInterrupt, so clean-ups run for both)."""
+    """SIGTERM or SIGHUP, raised in the main thread (a KeyboardInterrupt, so clean-ups run
+    for all); ``signum`` is the signal's number."""
+
+    def __init__(self, signum: int = signal.SIGTERM) -> None:
+        super().__init__(signum)
+        self.signum = signum
 
 
 def _raise_signal(signum: int, _frame: Any) -> None:
-    for sig in (signal.SIGINT, signal.SIGTERM):  # the clean-up is not interrupted again
+    if os.getpid() != _owner["pid"]:  # a forked child (a pool worker): end as by default
+        signal.signal(signum, signal.SIG_DFL)
+        os.kill(os.getpid(), signum)
+        return
+    for sig in SIGNALS:  # the clean-up is not interrupted again
         signal.signal(sig, signal.SIG_IGN)
-    if signum == signal.SIGTERM:
-        raise Terminated()
-    raise KeyboardInterrupt()
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt()
+    raise Terminated(signum)
 
 
-def install_signals() -> dict[int, Any]:
-    """SIGINT and SIGTERM raise in the main thread; returns the old handlers."""
-    old = {}
-    for sig in (signal.SIGINT, signal.SIGTERM):
+def install_signals(old: dict[int, Any] | None = None) -> dict[int, Any]:
+    """SIGINT, SIGTERM and SIGHUP raise in the main thread; returns (and fills ``old`` with)
+    the handlers replaced. An ignored SIGHUP (``nohup``) stays ignored."""
+    old = {} if old is None else old
+    _owner["pid"] = os.getpid()
+    for sig in SIGNALS:
         with contextlib.suppress(ValueError):  # not the main thread: leave them
+            if sig == signal.SIGHUP and signal.getsignal(sig) == signal.SIG_IGN:
+                continue
             old[sig] = signal.signal(sig, _raise_signal)
     return old
 
@@ -101,10 +124,13 @@ def restore_signals(old: dict[int, Any]) -> None:
 
 
 def signal_exit(exc: BaseException) -> tuple[int, str]:
-    """The exit status and the line of an interrupt."""
-    if isinstance(exc, Terminated):
-        return 128 + signal.SIGTERM, "hexcal: terminated"
-    return 128 + signal.SIGINT, "hexcal: interrupted"
+    """The exit status and the line of an interrupt: 128 + the signal's number.
+
+    >>> signal_exit(Terminated(signal.SIGHUP))
+    (129, 'hexcal: hung up')
+    """
+    signum = exc.signum if isinstance(exc, Terminated) else signal.SIGINT
+    return 128 + signum, f"hexcal: {SIGNALS.get(signum, 'terminated')}"
 
 
 # -- options ---------------------------------------------------------------------------------
