@@ -107,7 +107,7 @@ def _quietly(handler: Callable[[socket.socket], None], conn: socket.socket) -> N
 def http_server() -> Iterator[str]:
     """A real HTTP server (what Dask's dashboard is) on a free local port."""
     httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), http.server.SimpleHTTPRequestHandler)
-    threading.Thread(target=httpd.serve_forever, daemon=True).start()
+    threading.Thread(target=httpd.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True).start()
     yield f"tcp://127.0.0.1:{httpd.server_address[1]}"
     httpd.shutdown()
     httpd.server_close()
