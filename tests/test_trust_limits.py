@@ -134,3 +134,18 @@ def test_a_fifo_as_a_setup_is_refused_at_once(capsys, tmp_path):
     os.mkfifo(tmp_path / "fifo.yaml")
     status, _, err = _run(capsys, *SELECT, "--setup", tmp_path / "fifo.yaml", "--out", tmp_path / "p.csv")
     assert status == 1 and "FIFO" in _one_line(err)
+
+
+def test_a_linuxcnc_configuration_over_the_size_limit_is_refused_before_reading(capsys, tmp_path):
+    from hexcal.cli.linuxcnc import MAX_CONFIG_BYTES
+
+    path = tmp_path / "big.ini"
+    with open(path, "w") as fh:
+        fh.write("[TRAJ]\nLINEAR_UNITS = mm\n")
+        fh.write(("# " + "x" * 1022 + "\n") * (MAX_CONFIG_BYTES // 1024 + 1))
+    (tmp_path / "m.hal").write_text("loadrt genhexkins\n")
+    argv = ["import", "linuxcnc", "--hal", tmp_path / "m.hal", "--ini", path, "--out", tmp_path / "g.yaml"]
+    status, out, err = _run(capsys, *argv)
+    line = _one_line(err)
+    assert status == 1 and out == "" and "big.ini" in line and "over the limit" in line
+    assert not (tmp_path / "g.yaml").exists()

@@ -54,28 +54,24 @@ def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
     )
     p.add_argument("--name", help="geometry name (default: the INI's [EMC] MACHINE)")
     p.add_argument("--out", required=True, help="geometry YAML file to write")
-    p.set_defaults(func=cmd_import, inputs=("hal", "ini", "home"), outputs=("out",), folders=())
+    p.set_defaults(func=cmd_import, inputs=("hal", "ini"), outputs=("out",), folders=())
 
 
 def _warn(message: str) -> None:
     print(f"hexcal: warning: {message}", file=sys.stderr)
 
 
-def _same_file(a: Path, b: Path) -> bool:
-    try:
-        return a.exists() and b.exists() and os.path.samefile(a, b)
-    except OSError:
-        return False
+#: Bytes a HAL or INI file may have (a machine's configuration is a few kB).
+MAX_CONFIG_BYTES = 16 * 1024 * 1024
 
 
 def _read_text(path: str, what: str) -> str:
-    try:
-        with open(path, encoding="utf-8") as fh:
-            return fh.read()
-    except FileNotFoundError:
-        raise CommandError(f"{path}: no such {what} file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CommandError(f"{path}: cannot read: {exc}") from None
+    """A configuration file, read like every input: a regular file, within a size limit."""
+    from hexcal.io.inputs import read_text
+
+    if not os.path.lexists(path):
+        raise CommandError(f"{path}: no such {what} file")
+    return read_text(path, max_bytes=MAX_CONFIG_BYTES)
 
 
 def cmd_export(args: argparse.Namespace) -> None:
@@ -125,17 +121,13 @@ def _parse_home(text: str) -> list[float]:
 
 
 def cmd_import(args: argparse.Namespace) -> None:
+    """Write the geometry of a LinuxCNC configuration (``--out`` is checked by the command's
+    output set before this runs: not an input, its folder writable)."""
     from hexcal.errors import GeometryError
     from hexcal.io import save_geometry
     from hexcal.io.linuxcnc_import import import_linuxcnc
 
     out = Path(args.out)
-    for given in (args.hal, args.ini):
-        if given and (_same_file(out, Path(given)) or out.resolve() == Path(given).resolve()):
-            raise CommandError(f"{out}: is an input file; choose another --out")
-    folder = out.parent if str(out.parent) else Path(".")
-    if not folder.is_dir():
-        raise CommandError(f"{out}: the folder {folder} does not exist")
     hal_text = _read_text(args.hal, "HAL")
     ini_text = _read_text(args.ini, "INI") if args.ini else None
     home = _parse_home(args.home) if args.home else None
