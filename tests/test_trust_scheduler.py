@@ -206,6 +206,7 @@ def test_the_client_start_is_bounded_even_past_the_probe(serve):
 #: a failed client's ``__del__`` would print its traceback there, after the error lines.
 SCRIPT = r"""
 import contextlib, io, json, socket, struct, sys, threading, time
+import distributed  # its log handlers write to this process's stderr, not to a redirection
 from hexcal.cli import main
 from hexcal.simulation import dask_executor
 dask_executor.CONNECT_TIMEOUT = 0.5

@@ -320,16 +320,21 @@ def connect(address: str, timeout: float | None = None) -> Any:
     probe(address, deadline, timeout)
     import logging
 
-    # a failed connection logs tracebacks of its retries: the error below says it all
-    log = logging.getLogger("distributed")
-    level = log.level
-    log.setLevel(logging.CRITICAL)
+    # a failed connection logs tracebacks (of its retries, of a message it cannot decode, at
+    # levels up to CRITICAL, some on the client's own thread): the error below says it all
+    disabled = logging.root.manager.disable
+    logging.disable(logging.CRITICAL)
+    detail = None
     try:
         return bounded_client(address, max(deadline - time.monotonic(), 0.05))
     except Exception as exc:  # whatever a misbehaving server makes distributed raise
         name = type(exc).__name__
         detail = (str(exc).splitlines() or [""])[0][:120]
         detail = name if detail in ("", name) else f"{name}: {detail}"
-        raise _fail(address, f"the server does not complete Dask's handshake ({detail})", timeout) from None
     finally:
-        log.setLevel(level)
+        if detail is not None:  # the failed connection's objects go now, their last logs unheard
+            import gc
+
+            gc.collect()
+        logging.disable(disabled)
+    raise _fail(address, f"the server does not complete Dask's handshake ({detail})", timeout)
