@@ -190,3 +190,15 @@ def test_two_outputs_of_one_command_on_one_file_are_refused_up_front(capsys, tmp
     status, _, err = _run(capsys, "paper", "--trials", "2", "--out", "res", "--html", "res/table1.json")
     assert status == 1 and "two outputs name the same file" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "res").exists()
+
+
+def test_the_declarations_are_not_options_a_report_shows(capsys, tmp_path, monkeypatch):
+    """input_lists and folder_files are consumed by the output set: the HTML page's record of
+    the command's options does not show them (a function's repr was there)."""
+    monkeypatch.chdir(tmp_path)
+    argv = ["select", "--geometry", "paper-hmt", "--candidates", "corners", "--n", "15", "--no-exchange"]
+    status, _, err = _run(capsys, *argv, "--out", "s.csv", "--html", "s.html")
+    assert status == 0, err
+    page = (tmp_path / "s.html").read_text(encoding="utf-8")
+    assert "strategy=optimal" in page  # the options are there
+    assert "input_lists" not in page and "folder_files" not in page and "function" not in page

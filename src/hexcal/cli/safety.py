@@ -300,15 +300,18 @@ def declared_files(args: argparse.Namespace) -> tuple[list[str], list[str], list
     - ``folder_files``: folder option name -> the fixed file names the command writes into
       that folder (``--out DIR`` of ``simulate``: ``DIR/study.json``...): outputs too, so
       that each is checked (a FIFO, a read-only file, an input) before any work.
+
+    ``input_lists`` and ``folder_files`` are consumed (removed from ``args``): they are not
+    options, and the reports that list a command's options must not show them.
     """
     values = vars(args)
+    lists, folder_files = values.pop("input_lists", None), values.pop("folder_files", None)
     inputs = _names(args, "inputs")
-    for dest, files in (values.get("input_lists") or {}).items():
+    for dest, files in (lists or {}).items():
         if isinstance(values.get(dest), str):
             inputs += [os.fspath(f) for f in files(values[dest])]
     outputs = _names(args, "outputs")
-    folder_files = values.get("folder_files") or FOLDER_FILES.get(values.get("command") or "", {})
-    for dest, names in folder_files.items():
+    for dest, names in (folder_files or FOLDER_FILES.get(values.get("command") or "", {})).items():
         if values.get(dest) is not None:
             outputs += [os.path.join(os.fspath(values[dest]), name) for name in names]
     return inputs, outputs, _names(args, "folders")
