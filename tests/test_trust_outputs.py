@@ -201,4 +201,5 @@ def test_the_declarations_are_not_options_a_report_shows(capsys, tmp_path, monke
     assert status == 0, err
     page = (tmp_path / "s.html").read_text(encoding="utf-8")
     assert "strategy=optimal" in page  # the options are there
-    assert "input_lists" not in page and "folder_files" not in page and "function" not in page
+    assert "input_lists" not in page and "folder_files" not in page
+    assert "&lt;function" not in page and "<function" not in page
