@@ -34,10 +34,10 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
 if _sys.argv[:1] == ["-m"] or _os.path.basename(_sys.argv[0] if _sys.argv else "") == "hexcal":
-    # started as the command (``python -m hexcal`` or the ``hexcal`` script): an interrupt
-    # during the start-up ends with one line, no traceback (``main`` installs the handlers
+    # started as the command (``python -m hexcal`` or the ``hexcal`` script): SIGINT, SIGTERM
+    # or SIGHUP (unless ignored, as under ``nohup``) during the start-up ends with one line,
+    # no traceback, exit status 128 + the signal's number (``main`` installs the handlers
     # that clean up once a command runs)
-    # (SIGHUP too, unless it is ignored: ``nohup``); exit status 128 + the signal's number
     import signal as _signal
 
     _WORDS = {_signal.SIGINT: "interrupted", _signal.SIGTERM: "terminated", _signal.SIGHUP: "hung up"}

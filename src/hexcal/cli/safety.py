@@ -11,7 +11,9 @@
   positive, ``--max-rows`` positive, and sizes within :data:`MEMORY_BUDGET` before anything
   is allocated (:func:`check_options`).
 - **Outputs**: a command declares ``inputs``, ``outputs`` and ``folders`` (names of its
-  options) with ``set_defaults`` in its ``register``; :func:`command_outputs` builds one
+  options), the files named inside option values (``input_lists``) and the files it writes
+  into its folders (``folder_files``) with ``set_defaults`` in its ``register``
+  (:func:`declared_files`); :func:`command_outputs` builds one
   :class:`hexcal.io.OutputSet` of them, checked before the work, active while the command
   runs (every writer stages into it), with the command's standard output captured and
   committed with the files: all or nothing.
