@@ -121,20 +121,34 @@ def test_a_hostile_source_path_is_one_comment(tmp_path, capsys, harmless, name):
         assert "cal" in source or "c\\u2028" in source
 
 
+def _private_ipc() -> list[str] | None:
+    """``unshare --ipc``: halcmd attaches to the machine's HAL shared memory, and its setp
+    lines would set the pins of a LinuxCNC running there (another test run's); in a private
+    IPC namespace it meets none. None where that cannot be had."""
+    if not shutil.which("unshare"):
+        return None
+    done = subprocess.run(["unshare", "--ipc", "true"], capture_output=True, timeout=60)
+    return ["unshare", "--ipc"] if done.returncode == 0 else None
+
+
 @pytest.mark.skipif(
     not (shutil.which("halcmd") and shutil.which("inivar")), reason="LinuxCNC is not installed"
 )
 @pytest.mark.parametrize("kind", ["newline_loadusr", "long_line", "other_line_breaks"])
 def test_linuxcncs_own_readers_see_only_hexcals_lines(tmp_path, capsys, kind):
     """halcmd runs every command of the HAL file (-k: on after failures; genhexkins is not
-    loaded, so each setp fails and says so): exactly the 36 setp lines, and nothing else runs.
+    loaded in its private IPC namespace, so each setp fails and says so): exactly the 36 setp
+    lines, and nothing else runs.
     inivar (LinuxCNC's INI reader) finds the numbers written and no injected key."""
+    isolated = _private_ipc()
+    if isolated is None:
+        pytest.skip("no private IPC namespace (unshare --ipc) for halcmd")
     marker = tmp_path / "pwned"
     geometry = _geometry(HOSTILE[kind].format(marker=marker))
     save_geometry(geometry, tmp_path / "cal.yaml")
     _export(capsys, tmp_path / "cal.yaml", tmp_path / "lc")
     done = subprocess.run(
-        ["halcmd", "-k", "-f", str(tmp_path / "lc" / HAL_FILE)],
+        [*isolated, "halcmd", "-k", "-f", str(tmp_path / "lc" / HAL_FILE)],
         cwd=tmp_path, capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     messages = [line for line in (done.stdout + done.stderr).splitlines() if line.strip()]
