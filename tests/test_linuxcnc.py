@@ -14,7 +14,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from hexcal.cli import main
-from hexcal.cli.linuxcnc import write_all_or_nothing
+from hexcal.cli.linuxcnc import EXPORT_FILES
 from hexcal.core.kinematics import inverse_kinematics
 from hexcal.core.presets import preset
 from hexcal.io import load_geometry, save_geometry
@@ -253,7 +253,7 @@ def test_cli_export_warns_once_for_another_euler_sequence(tmp_path, capsys):
         ["import", "linuxcnc", "--hal", "{tmp}/bad.hal", "--out", "{tmp}/no/g.yaml"],
         ["import", "linuxcnc", "--hal", "{tmp}/bad.hal", "--home", "1,2,3", "--out", "{tmp}/g.yaml"],
         ["export", "linuxcnc", "--geometry", "{tmp}/missing.yaml", "--out", "{tmp}/lc"],
-        ["export", "linuxcnc", "--geometry", "paper-hmt", "--out", "{tmp}/no/lc"],
+        ["export", "linuxcnc", "--geometry", "paper-hmt", "--out", "{tmp}/bad.hal/lc"],
         ["export", "linuxcnc", "--geometry", "paper-hmt", "--out", "{tmp}/bad.hal"],
     ],
 )
@@ -273,23 +273,32 @@ def test_export_never_overwrites_its_input(tmp_path, capsys):
     save_geometry(awkward(), folder / HAL_FILE)  # a geometry file that happens to bear the name
     text = (folder / HAL_FILE).read_text()
     status, _, err = run(capsys, "export", "linuxcnc", "--geometry", folder / HAL_FILE, "--out", folder)
-    assert status == 1 and "input geometry" in err
+    assert status == 1 and "this output is also an input" in err
     assert (folder / HAL_FILE).read_text() == text and sorted(os.listdir(folder)) == [HAL_FILE]
 
 
-def test_write_all_or_nothing_restores_old_files_when_a_rename_fails(tmp_path, monkeypatch):
-    (tmp_path / "a").write_text("old a")
-    (tmp_path / "b").write_text("old b")
+def test_export_files_are_declared_with_the_names_written():
+    assert EXPORT_FILES == (HAL_FILE, INI_FILE)
+
+
+def test_export_writes_both_files_or_neither_when_a_rename_fails(tmp_path, monkeypatch, capsys):
+    """The export commits through the command's output set: a failing second rename puts the
+    first file back (the set's roll-back, shared with every command)."""
+    save_geometry(awkward(), tmp_path / "g.yaml")  # xyz angles: no warning
+    folder = tmp_path / "lc"
+    folder.mkdir()
+    (folder / HAL_FILE).write_text("old hal")
+    (folder / INI_FILE).write_text("old ini")
     real_replace, calls = os.replace, []
 
     def failing_replace(src, dst):
         calls.append(dst)
         if len(calls) == 2:
-            raise OSError("disk full")
+            raise OSError(28, "No space left on device")
         return real_replace(src, dst)
 
     monkeypatch.setattr(os, "replace", failing_replace)
-    with pytest.raises(OSError, match="disk full"):
-        write_all_or_nothing(tmp_path, {"a": "new a", "b": "new b"})
-    assert sorted(os.listdir(tmp_path)) == ["a", "b"]
-    assert (tmp_path / "a").read_text() == "old a" and (tmp_path / "b").read_text() == "old b"
+    status, _, err = run(capsys, "export", "linuxcnc", "--geometry", tmp_path / "g.yaml", "--out", folder)
+    assert status == 1 and len(err.splitlines()) == 1 and "No space left" in err
+    assert sorted(os.listdir(folder)) == [INI_FILE, HAL_FILE]
+    assert (folder / HAL_FILE).read_text() == "old hal" and (folder / INI_FILE).read_text() == "old ini"

@@ -34,18 +34,21 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
 if _sys.argv[:1] == ["-m"] or _os.path.basename(_sys.argv[0] if _sys.argv else "") == "hexcal":
-    # started as the command (``python -m hexcal`` or the ``hexcal`` script): an interrupt
-    # during the start-up ends with one line, no traceback (``main`` installs the handlers
+    # started as the command (``python -m hexcal`` or the ``hexcal`` script): SIGINT, SIGTERM
+    # or SIGHUP (unless ignored, as under ``nohup``) during the start-up ends with one line,
+    # no traceback, exit status 128 + the signal's number (``main`` installs the handlers
     # that clean up once a command runs)
     import signal as _signal
 
+    _WORDS = {_signal.SIGINT: "interrupted", _signal.SIGTERM: "terminated", _signal.SIGHUP: "hung up"}
+
     def _startup_signal(signum: int, _frame: object) -> None:
-        word = "terminated" if signum == _signal.SIGTERM else "interrupted"
-        _os.write(2, f"hexcal: {word}\n".encode())
+        _os.write(2, f"hexcal: {_WORDS.get(signum, 'terminated')}\n".encode())
         _os._exit(128 + signum)
 
-    for _sig in (_signal.SIGINT, _signal.SIGTERM):
-        _signal.signal(_sig, _startup_signal)
+    for _sig in _WORDS:
+        if _sig != _signal.SIGHUP or _signal.getsignal(_sig) != _signal.SIG_IGN:
+            _signal.signal(_sig, _startup_signal)
 
 from hexcal._lazy import attach  # noqa: E402
 

@@ -77,6 +77,8 @@ def parse_noise(text: str | None, distribution: str = "uniform") -> NoiseModel:
         key = key.strip()
         if not sep or key not in keys:
             raise CommandError(f"--noise: cannot read {item!r}; write e.g. leg=0.01,pos=0.025,ang=0.001")
+        if keys[key] in values:
+            raise CommandError(f"--noise: {key} is given twice; give each of leg, pos and ang once")
         try:
             number = float(value)
         except ValueError:
@@ -230,6 +232,18 @@ def _candidate_kind(token: str, geometry: Any, rng: Any) -> tuple[Any, list[str]
         raise CommandError(f"--candidates: {token}: {exc}") from None
     width = len(str(len(poses)))
     return poses, [f"{CANDIDATE_PREFIXES[kind]}{k:0{width}d}" for k in range(len(poses))]
+
+
+def candidate_files(spec: str) -> list[str]:
+    """The files a ``--candidates`` spec names (every token that is not a built-in kind).
+
+    Declared as inputs of the command's output set, so that no output may replace one.
+
+    >>> candidate_files("corners+grid:3+poses.csv+random:10+more.csv")
+    ['poses.csv', 'more.csv']
+    """
+    tokens = [t.strip() for t in spec.split("+") if t.strip()]
+    return [t for t in tokens if t.partition(":")[0] not in CANDIDATE_PREFIXES]
 
 
 def candidate_spec(spec: str, geometry: Any, seed: int) -> tuple[Any, list[str]]:

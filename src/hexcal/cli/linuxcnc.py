@@ -13,13 +13,17 @@ inside the commands, so that ``hexcal --help`` stays fast. Known failures raise
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import sys
 from pathlib import Path
 from typing import Any
 
 from hexcal.cli.common import GEOMETRY_HELP, CommandError
+
+#: The files ``export linuxcnc`` writes into its ``--out`` folder (``hexcal.io.linuxcnc``'s
+#: ``HAL_FILE`` and ``INI_FILE``, spelled here so that the parser needs no numpy; a test
+#: checks that they agree).
+EXPORT_FILES = ("hexcal-kins.hal", "hexcal-joints.ini")
 
 
 def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
@@ -30,7 +34,13 @@ def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
     p.add_argument(
         "--out", required=True, help="folder for hexcal-kins.hal and hexcal-joints.ini (created if missing)"
     )
-    p.set_defaults(func=cmd_export, inputs=("geometry",), outputs=(), folders=())
+    p.set_defaults(
+        func=cmd_export,
+        inputs=("geometry",),
+        outputs=(),
+        folders=("out",),
+        folder_files={"out": EXPORT_FILES},
+    )
 
     p = sub.add_parser("import", help="a geometry from a controller's configuration (LinuxCNC genhexkins)")
     p.add_argument("target", choices=("linuxcnc",), help="controller format")
@@ -44,81 +54,35 @@ def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
     )
     p.add_argument("--name", help="geometry name (default: the INI's [EMC] MACHINE)")
     p.add_argument("--out", required=True, help="geometry YAML file to write")
-    p.set_defaults(func=cmd_import, inputs=("hal", "ini", "home"), outputs=("out",), folders=())
+    p.set_defaults(func=cmd_import, inputs=("hal", "ini"), outputs=("out",), folders=())
 
 
 def _warn(message: str) -> None:
     print(f"hexcal: warning: {message}", file=sys.stderr)
 
 
-def _same_file(a: Path, b: Path) -> bool:
-    try:
-        return a.exists() and b.exists() and os.path.samefile(a, b)
-    except OSError:
-        return False
+#: Bytes a HAL or INI file may have (a machine's configuration is a few kB).
+MAX_CONFIG_BYTES = 16 * 1024 * 1024
 
 
 def _read_text(path: str, what: str) -> str:
-    try:
-        with open(path, encoding="utf-8") as fh:
-            return fh.read()
-    except FileNotFoundError:
-        raise CommandError(f"{path}: no such {what} file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CommandError(f"{path}: cannot read: {exc}") from None
+    """A configuration file, read like every input: a regular file, within a size limit."""
+    from hexcal.io.inputs import read_text
 
-
-def write_all_or_nothing(folder: Path, files: dict[str, str]) -> None:
-    """Write ``files`` (name -> text) into ``folder``: all of them, or none changed.
-
-    Each text goes to a temporary file in ``folder`` first; then all are renamed into
-    place. Should a rename fail, the files already replaced get their old contents back
-    (kept as hard links) and the new ones are removed.
-    """
-    temps: dict[str, str] = {}
-    backups: dict[str, str] = {}
-    done: list[str] = []
-    try:
-        for name, text in files.items():
-            import tempfile  # deferred: commands import what they use (fast --help)
-
-            fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=".tmp", dir=folder)
-            temps[name] = tmp
-            with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-                fh.write(text)
-            mask = os.umask(0)
-            os.umask(mask)
-            os.chmod(tmp, 0o666 & ~mask)
-        for name in files:
-            target = folder / name
-            if target.exists():
-                import secrets
-
-                backup = str(folder / f".{name}.{os.getpid()}.{secrets.token_hex(6)}.old")
-                os.link(target, backup)  # fails, rather than overwrites, if the name exists
-                backups[name] = backup
-        for name, tmp in temps.items():
-            os.replace(tmp, folder / name)
-            done.append(name)
-    except BaseException:
-        for name in done:  # undo the renames already made
-            with contextlib.suppress(OSError):
-                if name in backups:
-                    os.replace(backups.pop(name), folder / name)
-                else:
-                    os.unlink(folder / name)
-        for path in (*temps.values(), *backups.values()):
-            with contextlib.suppress(OSError):
-                os.unlink(path)
-        raise
-    for backup in backups.values():
-        with contextlib.suppress(OSError):
-            os.unlink(backup)
+    if not os.path.lexists(path):
+        raise CommandError(f"{path}: no such {what} file")
+    return read_text(path, max_bytes=MAX_CONFIG_BYTES)
 
 
 def cmd_export(args: argparse.Namespace) -> None:
+    """Write ``hexcal-kins.hal`` and ``hexcal-joints.ini`` through the command's output set.
+
+    The two files are declared outputs of the command (``folder_files``): checked before the
+    work like every output (an input, a FIFO, a read-only or hard-linked file is refused; a
+    symbolic link is written through; a replaced file keeps its mode) and committed together.
+    """
     from hexcal.core.presets import PRESETS
-    from hexcal.io import load_geometry
+    from hexcal.io import check_input, load_geometry, write_text
     from hexcal.io.linuxcnc import euler_warning, export_linuxcnc
 
     geometry = load_geometry(args.geometry)
@@ -126,6 +90,7 @@ def cmd_export(args: argparse.Namespace) -> None:
         source, sha256, date = f"built-in preset {args.geometry}", None, None
     else:
         path = Path(args.geometry)
+        check_input(path)
         data = path.read_bytes()
         import datetime
         import hashlib
@@ -135,26 +100,9 @@ def cmd_export(args: argparse.Namespace) -> None:
         source, date = str(path), mtime.strftime("%Y-%m-%dT%H:%M:%SZ")
     files = export_linuxcnc(geometry, source=source, source_sha256=sha256, source_date=date)
     folder = Path(args.out)
-    if folder.exists() and not folder.is_dir():
-        raise CommandError(f"{folder}: is a file, not a folder")
-    if not folder.exists():
-        parent = folder.parent if str(folder.parent) else Path(".")
-        if not parent.is_dir():
-            raise CommandError(f"{folder}: the folder {parent} does not exist")
-    if args.geometry not in PRESETS:
-        for name in files:
-            if _same_file(folder / name, Path(args.geometry)):
-                raise CommandError(f"{folder / name}: is the input geometry; choose another --out")
+    for name, text in files.items():
+        write_text(folder / name, text)
     warning = euler_warning(geometry)
-    created = not folder.exists()
-    folder.mkdir(exist_ok=True)
-    try:
-        write_all_or_nothing(folder, files)
-    except BaseException:
-        if created:
-            with contextlib.suppress(OSError):
-                folder.rmdir()
-        raise
     if warning:
         _warn(warning)
     print(f"wrote {', '.join(str(folder / name) for name in files)}")
@@ -173,22 +121,24 @@ def _parse_home(text: str) -> list[float]:
 
 
 def cmd_import(args: argparse.Namespace) -> None:
+    """Write the geometry of a LinuxCNC configuration (``--out`` is checked by the command's
+    output set before this runs: not an input, its folder writable)."""
+    from hexcal.errors import GeometryError
     from hexcal.io import save_geometry
     from hexcal.io.linuxcnc_import import import_linuxcnc
 
     out = Path(args.out)
-    for given in (args.hal, args.ini):
-        if given and (_same_file(out, Path(given)) or out.resolve() == Path(given).resolve()):
-            raise CommandError(f"{out}: is an input file; choose another --out")
-    folder = out.parent if str(out.parent) else Path(".")
-    if not folder.is_dir():
-        raise CommandError(f"{out}: the folder {folder} does not exist")
     hal_text = _read_text(args.hal, "HAL")
     ini_text = _read_text(args.ini, "INI") if args.ini else None
     home = _parse_home(args.home) if args.home else None
     geometry, warnings = import_linuxcnc(
         hal_text, ini_text, hal_name=args.hal, ini_name=args.ini or "INI file", home_pose=home, name=args.name
     )
+    try:  # the rules of every geometry hexcal reads: never write one it would refuse to load
+        geometry.check_plausible()
+    except GeometryError as exc:
+        files = f"{args.hal} and {args.ini}" if args.ini else args.hal
+        raise CommandError(f"{files}: hexcal cannot use the machine they describe: {exc}") from None
     save_geometry(geometry, out)
     for warning in warnings:
         _warn(warning)

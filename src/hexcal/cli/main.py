@@ -2,8 +2,9 @@
 :func:`main`, which runs a subcommand safely and turns every known failure into one line.
 
 Every failure ends with one line ``hexcal: error: ...`` on stderr and no output file: exit
-status 2 for a usage error (a malformed command line), 1 for every other error; SIGINT
-ends with ``hexcal: interrupted`` (130), SIGTERM with ``hexcal: terminated`` (143);
+status 2 for a usage error (a malformed command line), 1 for every other error; a signal
+ends it with one line and 128 + the signal's number: SIGINT ``hexcal: interrupted`` (130),
+SIGTERM ``hexcal: terminated`` (143), SIGHUP (a closed terminal) ``hexcal: hung up`` (129);
 warnings print as ``hexcal: warning: ...``. The outputs a command declares are checked
 before it runs and committed together with its standard output after it succeeds
 (:mod:`hexcal.cli.safety`). Imports only the standard library, :mod:`hexcal.errors` and
@@ -28,8 +29,9 @@ MAX_ROWS_COMMANDS = ("identify", "ik", "fk", "validate", "compensate")
 
 EPILOG = (
     "Exit status: 0 success; 1 error (one line 'hexcal: error: ...', no output written); "
-    f"{safety.USAGE_STATUS} usage error (a malformed command line); 130 interrupted (SIGINT); "
-    "143 terminated (SIGTERM)."
+    f"{safety.USAGE_STATUS} usage error (a malformed command line); 128 + the signal's number after "
+    "a signal: 130 interrupted (SIGINT), 143 terminated (SIGTERM), 129 hung up (SIGHUP, a closed "
+    "terminal)."
 )
 
 
@@ -93,10 +95,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     >>> main(["ik", "--geometry", "paper-hmt", "--poses", "missing.csv", "--out", "legs.csv"])
     1
     """
-    old_signals = safety.install_signals()
+    old_signals: dict[int, Any] = {}
     console = argv is None
     old = warnings.showwarning
-    try:
+    try:  # a signal from here on ends in one line (the handlers are installed inside the try)
+        safety.install_signals(old_signals)
         warnings.showwarning = _show_warning
         # floating-point warnings of numpy ("overflow encountered in ..."): the results are
         # checked for finite values where they matter; the warning would only confuse
@@ -109,7 +112,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         with contextlib.suppress(OSError):
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except KeyboardInterrupt as exc:  # SIGINT, or SIGTERM (Terminated)
+    except KeyboardInterrupt as exc:  # SIGINT, or SIGTERM and SIGHUP (Terminated)
         status, line = safety.signal_exit(exc)
         with contextlib.suppress(Exception):
             print(line, file=sys.stderr, flush=True)

@@ -24,6 +24,7 @@ from hexcal.cli.common import (
     GEOMETRY_HELP,
     NOISE_HELP,
     CommandError,
+    candidate_files,
     candidate_spec,
     check_outputs,
     choice,
@@ -48,6 +49,10 @@ ERRORMAP_FIGURES = {
     "a-c": "fig8_a-c.png",
     "b-c": "fig9_b-c.png",
 }
+
+#: Every file ``hexcal errormap`` writes into ``--out``: figures, tables (``errormap_tables``), claims.
+ERRORMAP_FILES = (*ERRORMAP_FIGURES.values(), "claims.json")
+ERRORMAP_FILES += tuple(f"errormap_{name}.csv" for name in (*ERRORMAP_FIGURES, "corners", "interior"))
 
 CANDIDATES_HELP = "corners, grid[:L], edges[:L], random:N, FILE; join with +"
 FIT_HELP = "parameter groups: joints, base, platform, l0, gains"
@@ -306,7 +311,8 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--euler", help=EULER_HELP)
-    p.set_defaults(func=cmd_errormap, inputs=("geometry",), outputs=(), folders=("out",))
+    files = {"folder_files": {"out": ERRORMAP_FILES}}  # declared: each checked before the work
+    p.set_defaults(func=cmd_errormap, inputs=("geometry",), outputs=(), folders=("out",), **files)
 
     p = sub.add_parser("observability", help="observability indices and predicted accuracy of a pose set")
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
@@ -342,7 +348,8 @@ def register(sub: Any) -> None:
     p.add_argument("--min-distance", type=float, help="minimum singularity distance (default 0.05)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--euler", help=EULER_HELP)
-    p.set_defaults(func=cmd_candidates, inputs=("geometry",), outputs=("out",), folders=())
+    spec = {"input_lists": {"candidates": candidate_files}}  # the files of a spec are inputs
+    p.set_defaults(func=cmd_candidates, inputs=("geometry",), outputs=("out",), folders=(), **spec)
 
     p = sub.add_parser("select", help="select optimal measurement poses (greedy + exchange)")
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
@@ -367,6 +374,7 @@ def register(sub: Any) -> None:
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: poses optimal for it")
     p.add_argument("--fix", nargs="+", metavar="NAME", help="parameters or groups to hold, e.g. frame")
-    p.set_defaults(func=cmd_select, inputs=("geometry", "setup"), outputs=("out", "json", "html"), folders=())
+    p.set_defaults(func=cmd_select, inputs=("geometry", "setup"), outputs=("out", "json", "html"), **spec)
+    p.set_defaults(folders=())
     for name in ("errormap", "observability", "candidates", "select"):
         show_defaults(sub.choices[name])

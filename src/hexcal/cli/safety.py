@@ -1,14 +1,19 @@
 """What every command gets from :func:`hexcal.cli.main.main`, without a line of its own.
 
-- **Signals**: SIGINT raises :class:`KeyboardInterrupt`, SIGTERM :class:`Terminated` (a
-  subclass, so that every ``except KeyboardInterrupt`` cleans up for both: the simulation
-  runner terminates its workers, the output set removes its staged files); a second signal
-  during the clean-up is ignored.
+- **Signals**: SIGINT raises :class:`KeyboardInterrupt`, SIGTERM and SIGHUP (a closed
+  terminal or SSH session) :class:`Terminated` (a subclass, so that every ``except
+  KeyboardInterrupt`` cleans up for all three: the simulation runner terminates its workers,
+  the output set removes its staged files); a second signal during the clean-up is ignored.
+  The exit status is 128 + the signal's number (:data:`SIGNALS`). A SIGHUP ignored when
+  hexcal starts (``nohup``) stays ignored; a forked child (a pool worker) that inherits the
+  handlers ends at once on a signal, as by default.
 - **Options**: counts positive, ``--jobs`` not negative (0 = all cores), tolerances finite and
   positive, ``--max-rows`` positive, and sizes within :data:`MEMORY_BUDGET` before anything
   is allocated (:func:`check_options`).
 - **Outputs**: a command declares ``inputs``, ``outputs`` and ``folders`` (names of its
-  options) with ``set_defaults`` in its ``register``; :func:`command_outputs` builds one
+  options), the files named inside option values (``input_lists``) and the files it writes
+  into its folders (``folder_files``) with ``set_defaults`` in its ``register``
+  (:func:`declared_files`); :func:`command_outputs` builds one
   :class:`hexcal.io.OutputSet` of them, checked before the work, active while the command
   runs (every writer stages into it), with the command's standard output captured and
   committed with the files: all or nothing.
@@ -51,6 +56,14 @@ BOUND_COMMANDS = ("identify", "observability", "select", "simulate", "paper")
 #: of each method: a few hundred numbers).
 TRIAL_BYTES = 2048
 
+#: Campaign kinds per cell of a Monte Carlo command that no option counts: ``study
+#: selection`` runs three pose strategies (interior, corners, selected) per pose count.
+TRIAL_KINDS = {"study": 3}
+
+#: Comma-separated list options of each command, each value given once (a repeated value
+#: would only repeat rows of the results).
+LIST_OPTIONS = {"simulate": ("poses", "methods", "strategies", "noise_levels"), "study": ("poses",)}
+
 #: Fewest poses of a simulated campaign: 42 kinematic parameters, 6 leg equations per pose.
 SIMULATE_MIN_POSES = 7
 
@@ -59,28 +72,48 @@ SIMULATE_MIN_POSES = 7
 FK_MAX_TOL = 1e-3
 
 #: Exit status of a usage error (a malformed command line: unknown option, missing value,
-#: a value of the wrong type); every other error exits 1, a signal 130 (SIGINT) or 143
-#: (SIGTERM).
+#: a value of the wrong type); every other error exits 1, a signal 128 + its number
+#: (:data:`SIGNALS`).
 USAGE_STATUS = 2
+
+#: The signals that end a command, and the word of the line each ends it with; the exit
+#: status is 128 + the signal's number: 130 (SIGINT), 143 (SIGTERM), 129 (SIGHUP).
+SIGNALS = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated", signal.SIGHUP: "hung up"}
+
+#: The process that installed the handlers (a forked child inherits them, not this).
+_owner = {"pid": 0}
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised in the main thread (a KeyboardInterrupt, so clean-ups run for both)."""
+    """SIGTERM or SIGHUP, raised in the main thread (a KeyboardInterrupt, so clean-ups run
+    for all); ``signum`` is the signal's number."""
+
+    def __init__(self, signum: int = signal.SIGTERM) -> None:
+        super().__init__(signum)
+        self.signum = signum
 
 
 def _raise_signal(signum: int, _frame: Any) -> None:
-    for sig in (signal.SIGINT, signal.SIGTERM):  # the clean-up is not interrupted again
+    if os.getpid() != _owner["pid"]:  # a forked child (a pool worker): end as by default
+        signal.signal(signum, signal.SIG_DFL)
+        os.kill(os.getpid(), signum)
+        return
+    for sig in SIGNALS:  # the clean-up is not interrupted again
         signal.signal(sig, signal.SIG_IGN)
-    if signum == signal.SIGTERM:
-        raise Terminated()
-    raise KeyboardInterrupt()
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt()
+    raise Terminated(signum)
 
 
-def install_signals() -> dict[int, Any]:
-    """SIGINT and SIGTERM raise in the main thread; returns the old handlers."""
-    old = {}
-    for sig in (signal.SIGINT, signal.SIGTERM):
+def install_signals(old: dict[int, Any] | None = None) -> dict[int, Any]:
+    """SIGINT, SIGTERM and SIGHUP raise in the main thread; returns (and fills ``old`` with)
+    the handlers replaced. An ignored SIGHUP (``nohup``) stays ignored."""
+    old = {} if old is None else old
+    _owner["pid"] = os.getpid()
+    for sig in SIGNALS:
         with contextlib.suppress(ValueError):  # not the main thread: leave them
+            if sig == signal.SIGHUP and signal.getsignal(sig) == signal.SIG_IGN:
+                continue
             old[sig] = signal.signal(sig, _raise_signal)
     return old
 
@@ -93,10 +126,13 @@ def restore_signals(old: dict[int, Any]) -> None:
 
 
 def signal_exit(exc: BaseException) -> tuple[int, str]:
-    """The exit status and the line of an interrupt."""
-    if isinstance(exc, Terminated):
-        return 128 + signal.SIGTERM, "hexcal: terminated"
-    return 128 + signal.SIGINT, "hexcal: interrupted"
+    """The exit status and the line of an interrupt: 128 + the signal's number.
+
+    >>> signal_exit(Terminated(signal.SIGHUP))
+    (129, 'hexcal: hung up')
+    """
+    signum = exc.signum if isinstance(exc, Terminated) else signal.SIGINT
+    return 128 + signum, f"hexcal: {SIGNALS.get(signum, 'terminated')}"
 
 
 # -- options ---------------------------------------------------------------------------------
@@ -124,6 +160,29 @@ def _budget(option: str, size: int, what: str) -> None:
             f"{option}: {what} would need about {size / 1024**3:.1f} GiB, over hexcal's memory "
             f"budget of {MEMORY_BUDGET / 1024**3:.0f} GiB; choose a smaller value"
         )
+
+
+def _same_value(text: str) -> Any:
+    """The value a list item stands for (``8`` and ``08`` are one pose count)."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def _check_lists(values: dict[str, Any]) -> None:
+    """Refuse a value given twice in a comma-separated list option (``--poses 8,8``)."""
+    for dest in LIST_OPTIONS.get(values.get("command") or "", ()):
+        text = values.get(dest)
+        if not isinstance(text, str):
+            continue
+        seen: dict[Any, str] = {}
+        for item in (t.strip() for t in text.split(",") if t.strip()):
+            key = _same_value(item)
+            if key in seen:
+                same = "" if seen[key] == item else f" (as {seen[key]})"
+                raise CommandError(f"{_option(dest)}: {item} is given twice{same}; give each value once")
+            seen[key] = item
 
 
 def check_options(args: argparse.Namespace) -> None:
@@ -177,10 +236,12 @@ def check_options(args: argparse.Namespace) -> None:
         )
         option = "--grid" if (values.get("grid") or 1) ** 2 >= points else "--levels/--points"
         _budget(option, 48 * 4 * draws * points, "the error maps")
+    _check_lists(values)
     trials = values.get("trials")
-    if isinstance(trials, int) and values.get("command") in ("paper", "simulate"):
-        cells = 1
-        for dest in ("poses", "methods", "strategies", "noise_levels"):
+    if isinstance(trials, int):  # every Monte Carlo command: paper, simulate, study
+        command = values.get("command") or ""
+        cells = TRIAL_KINDS.get(command, 1)
+        for dest in LIST_OPTIONS.get(command, ("methods", "strategies", "noise_levels")):
             if isinstance(values.get(dest), str):
                 cells *= len([t for t in values[dest].split(",") if t.strip()]) or 1
         _budget("--trials", TRIAL_BYTES * trials * cells, f"{trials:,} trials of {cells} campaign kind(s)")
@@ -224,18 +285,52 @@ def _names(args: argparse.Namespace, attr: str) -> list[str]:
     return out
 
 
+#: The files that commands whose ``register`` does not declare ``folder_files`` write into
+#: their ``--out`` folder (until it does: ``cli/simulate.py``).
+FOLDER_FILES: dict[str, dict[str, tuple[str, ...]]] = {
+    "simulate": {"out": ("study.json", "study.csv", "study.png")},
+    "paper": {"out": ("table1.json", "fig10_parameter_errors.png", "fig11_validation_errors.png")},
+}
+
+
+def declared_files(args: argparse.Namespace) -> tuple[list[str], list[str], list[str]]:
+    """The inputs, outputs and folders a command declares (``set_defaults`` in ``register``).
+
+    - ``inputs``, ``outputs``, ``folders``: names of options holding a path (or a list);
+    - ``input_lists``: option name -> a function listing the files named inside its value
+      (``--candidates corners+poses.csv`` names ``poses.csv``): inputs too;
+    - ``folder_files``: folder option name -> the fixed file names the command writes into
+      that folder (``--out DIR`` of ``simulate``: ``DIR/study.json``...): outputs too, so
+      that each is checked (a FIFO, a read-only file, an input) before any work.
+
+    ``input_lists`` and ``folder_files`` are consumed (removed from ``args``): they are not
+    options, and the reports that list a command's options must not show them.
+    """
+    values = vars(args)
+    lists, folder_files = values.pop("input_lists", None), values.pop("folder_files", None)
+    inputs = _names(args, "inputs")
+    for dest, files in (lists or {}).items():
+        if isinstance(values.get(dest), str):
+            inputs += [os.fspath(f) for f in files(values[dest])]
+    outputs = _names(args, "outputs")
+    for dest, names in (folder_files or FOLDER_FILES.get(values.get("command") or "", {})).items():
+        if values.get(dest) is not None:
+            outputs += [os.path.join(os.fspath(values[dest]), name) for name in names]
+    return inputs, outputs, _names(args, "folders")
+
+
 @contextlib.contextmanager
 def command_outputs(args: argparse.Namespace) -> Iterator[Any]:
     """The command's output set: checked now, active and capturing stdout while it runs."""
     from hexcal.io import OutputSet, check_input
 
     real = sys.stdout
-    inputs = _names(args, "inputs")
+    inputs, declared, folders = declared_files(args)
     for name in inputs:  # FIFOs and devices refused at once, whichever reader comes later
         if os.path.lexists(name):
             check_input(name)
-    outputs = OutputSet(_names(args, "outputs"), inputs=inputs, stdout=real)
-    for folder in _names(args, "folders"):
+    outputs = OutputSet(declared, inputs=inputs, stdout=real)
+    for folder in folders:
         outputs.folder(folder)
     with outputs:
         outputs.check()

@@ -147,5 +147,9 @@ def register(sub: Any) -> None:
     p.add_argument("--out", help="folder for selection.json, selection.csv and selection.png")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(
-        func=with_scheduler(cmd_study_selection), inputs=("geometry", "true"), outputs=(), folders=("out",)
+        func=with_scheduler(cmd_study_selection),
+        inputs=("geometry", "true"),
+        outputs=(),
+        folders=("out",),
+        folder_files={"out": ("selection.json", "selection.csv", "selection.png")},
     )

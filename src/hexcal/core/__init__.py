@@ -68,7 +68,7 @@ __getattr__, __dir__, __all__ = attach(
         "random_interior": "workspace",
         "random_poses": "workspace",
         "reached_poses": "path_compensation",
-        "repr_key": "geometry",
+        "repr_key": "geometry_mapping",
         "rotate_points": "kinematics",
         "rotation_and_axes_t": "conventions",
         "rotation_matrices": "conventions",

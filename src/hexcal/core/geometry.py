@@ -17,7 +17,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.conventions import DEFAULT_EULER, N_LEGS, POSE_NAMES, check_euler
-from hexcal.core.legs import LegModel, LinearLegs, leg_model_from_dict
+from hexcal.core.geometry_mapping import short_repr
+from hexcal.core.legs import LegModel, LinearLegs
 from hexcal.core.parameters import (
     DEFAULT_FIT,
     JOINT_NAMES,
@@ -34,7 +35,7 @@ def _frozen(arr: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.flo
     try:
         out = np.array(arr, dtype=float)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise GeometryError(f"{what} must be numeric: {_short(exc)}") from None
+        raise GeometryError(f"{what} must be numeric: {short_repr(exc)}") from None
     if out.shape != shape:
         raise GeometryError(f"{what} must have shape {shape}, got {out.shape}")
     if not np.all(np.isfinite(out)):
@@ -63,6 +64,39 @@ def _distinct(joints: NDArray[np.float64], what: str, prefix: str) -> None:
         raise GeometryError(
             f"{what}: joints {prefix}{i + 1} and {prefix}{j + 1} coincide ({joints[i].tolist()}); "
             "every leg needs its own joint"
+        )
+
+
+#: Joints of one frame all within this fraction of their spread from one line are collinear:
+#: refused (such a frame turns about that line with no leg length changing).
+COLLINEAR_TOLERANCE = 1e-6
+
+
+def _not_collinear(joints: NDArray[np.float64], what: str) -> None:
+    centred = joints - joints.mean(axis=0)
+    spread = float(np.linalg.norm(centred, axis=1).max())
+    direction = np.linalg.svd(centred)[2][0]
+    off_line = float(np.linalg.norm(centred - np.outer(centred @ direction, direction), axis=1).max())
+    if off_line <= COLLINEAR_TOLERANCE * max(1.0, spread):
+        frame = "platform" if what.startswith("platform") else "base"
+        raise GeometryError(
+            f"{what}: the six joints lie on one line; a {frame} whose joints are collinear turns "
+            "about that line with no leg length changing, so no pose of this machine can be solved"
+        )
+
+
+#: Largest angle of a workspace range, rad: the angles of a pose are defined within ±180°.
+MAX_WORKSPACE_ANGLE = np.pi * (1 + 1e-12)
+
+
+def _angle_ranges(box: NDArray[np.float64]) -> None:
+    bad = np.flatnonzero(np.abs(box[3:]).max(axis=1) > MAX_WORKSPACE_ANGLE)
+    if bad.size:
+        k = int(bad[0]) + 3
+        lo, hi = np.rad2deg(box[k])
+        raise GeometryError(
+            f"workspace: {POSE_NAMES[k]} ranges over [{lo:.6g}, {hi:.6g}] degrees, beyond ±180 degrees; "
+            "give angle ranges within [-180, 180] degrees"
         )
 
 
@@ -139,6 +173,7 @@ class Geometry:
             box = _frozen(self.workspace, (6, 2), "workspace")
             if np.any(box[:, 0] > box[:, 1]):
                 raise GeometryError("workspace ranges must be [low, high] with low <= high")
+            _angle_ranges(box)
             put(self, "workspace", box)
         if self.calibration is not None:
             put(self, "calibration", copy.deepcopy(dict(self.calibration)))
@@ -153,8 +188,10 @@ class Geometry:
         """Refuse a geometry that no machine can have (:class:`GeometryError`, one line).
 
         Beyond the checks of construction (finite values, shapes, positive gains and initial
-        lengths, ``0 < min < max`` leg limits, ordered workspace): every joint distinct from
-        the other joints of its frame (within :data:`JOINT_SEPARATION`), and the home pose
+        lengths, ``0 < min < max`` leg limits, ordered workspace with angle ranges within
+        ±180°): every joint distinct from the other joints of its frame (within
+        :data:`JOINT_SEPARATION`), the joints of each frame not all on one line (within
+        :data:`COLLINEAR_TOLERANCE` of their spread), and the home pose
         inside the workspace box and within the leg length limits. Applied to every geometry
         file that hexcal loads; not at construction, where intermediate or synthetic
         geometries (tests, Monte Carlo draws) may legitimately break them.
@@ -164,6 +201,8 @@ class Geometry:
         """
         _distinct(self.base_joints, "base_joints", "u")
         _distinct(self.platform_joints, "platform_joints", "s")
+        _not_collinear(self.base_joints, "base_joints")
+        _not_collinear(self.platform_joints, "platform_joints")
         home = self.home_pose
         if home is None:
             return
@@ -278,168 +317,16 @@ class Geometry:
         """Copy with some fields changed (``dataclasses.replace``)."""
         return dataclasses.replace(self, **changes)
 
-    # -- dict / YAML form --------------------------------------------------
+    # -- dict / YAML form (hexcal.core.geometry_mapping) ----------------------
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Geometry:
-        """Build from the YAML mapping of FORMATS.md (validated)."""
-        if not isinstance(data, dict):
-            raise GeometryError("geometry must be a mapping of keys to values")
-        for key in ("units", "base_joints", "platform_joints", "initial_leg_lengths"):
-            if key not in data:
-                raise GeometryError(f"missing required key '{key}'")
-        if data["units"] != "mm":
-            raise GeometryError(f"units must be 'mm' (the only supported unit), got {_short(data['units'])}")
-        if not isinstance(data.get("name", ""), (str, int, float, type(None))):
-            raise GeometryError(f"name must be text, got {_short(data['name'])}")
-        if not isinstance(data.get("euler", DEFAULT_EULER), str):
-            raise GeometryError(f"euler must be a sequence name such as XYZ, got {_short(data['euler'])}")
-        known = {
-            "name",
-            "units",
-            "euler",
-            "base_joints",
-            "platform_joints",
-            "initial_leg_lengths",
-            "leg_gains",
-            "leg_length_limits",
-            "home_pose",
-            "workspace",
-            "calibration",
-            "leg_model",
-        }
-        unknown = sorted(map(repr_key, set(data) - known))
-        if unknown:
-            raise GeometryError(f"unknown key(s): {', '.join(unknown)}")
-        kwargs: dict[str, Any] = dict(
-            base_joints=data["base_joints"],
-            platform_joints=data["platform_joints"],
-            initial_leg_lengths=data["initial_leg_lengths"],
-            euler=data.get("euler", DEFAULT_EULER),
-            name=str(data.get("name", "") or ""),
-        )
-        if data.get("leg_gains") is not None:
-            kwargs["leg_gains"] = data["leg_gains"]
-        if data.get("leg_length_limits") is not None:
-            kwargs["leg_length_limits"] = data["leg_length_limits"]
-        if data.get("home_pose") is not None:
-            kwargs["home_pose"] = _pose_from_mapping(data["home_pose"], "home_pose")
-        if data.get("workspace") is not None:
-            kwargs["workspace"] = _box_from_mapping(data["workspace"])
-        if data.get("calibration") is not None:
-            if not isinstance(data["calibration"], dict):
-                raise GeometryError("calibration must be a mapping")
-            kwargs["calibration"] = data["calibration"]
-        if data.get("leg_model") is not None:
-            kwargs["leg_model"], kwargs["leg_terms"] = leg_model_from_dict(data["leg_model"])
-        return cls(**kwargs)
+        """Build from the geometry file's YAML mapping (validated; docs/formats.md)."""
+        from hexcal.core.geometry_mapping import geometry_kwargs
+
+        return cls(**geometry_kwargs(data))
 
     def to_dict(self) -> dict[str, Any]:
-        """The YAML mapping of FORMATS.md (angles written in degrees)."""
-        out: dict[str, Any] = {}
-        if self.name:
-            out["name"] = self.name
-        out["units"] = "mm"
-        out["euler"] = self.euler
-        out["base_joints"] = self.base_joints.tolist()
-        out["platform_joints"] = self.platform_joints.tolist()
-        out["initial_leg_lengths"] = self.initial_leg_lengths.tolist()
-        out["leg_gains"] = self.leg_gains.tolist()
-        if self.leg_model.terms or self.leg_model.settings():  # linear legs: the key is left out
-            out["leg_model"] = self.leg_model.to_dict(self.leg_block())
-        if self.leg_length_limits is not None:
-            out["leg_length_limits"] = self.leg_length_limits.tolist()
-        if self.home_pose is not None:
-            out["home_pose"] = _pose_to_mapping(self.home_pose)
-        if self.workspace is not None:
-            out["workspace"] = _box_to_mapping(self.workspace)
-        if self.calibration is not None:
-            out["calibration"] = copy.deepcopy(self.calibration)
-        return out
+        """The geometry file's YAML mapping (angles written in degrees; docs/formats.md)."""
+        from hexcal.core.geometry_mapping import geometry_mapping
 
-
-def _short(value: Any, most: int = 60) -> str:
-    """``repr`` of a value for a one-line message, cut to ``most`` characters."""
-    text = repr(value) if not isinstance(value, BaseException) else str(value)
-    text = " ".join(text.split())
-    return text if len(text) <= most else text[: most - 3] + "..."
-
-
-def repr_key(key: Any) -> str:
-    """A mapping key for a message: strings as they are, other keys (numbers...) as repr."""
-    return key if isinstance(key, str) else repr(key)
-
-
-def _angle_key(mapping: dict[str, Any], axis: str, where: str) -> tuple[Any, bool]:
-    """Value of angle ``axis`` and whether it was given in degrees."""
-    has_rad, has_deg = axis in mapping, f"{axis}_deg" in mapping
-    if has_rad and has_deg:
-        raise GeometryError(f"{where}: give '{axis}' or '{axis}_deg', not both")
-    if has_deg:
-        return mapping[f"{axis}_deg"], True
-    if has_rad:
-        return mapping[axis], False
-    raise GeometryError(f"{where}: missing key '{axis}' (rad) or '{axis}_deg'")
-
-
-_POSE_KEYS = {"x", "y", "z", "a", "b", "c", "a_deg", "b_deg", "c_deg"}
-
-
-def _coordinates(mapping: Any, where: str, expected: str) -> list[tuple[str, Any, bool]]:
-    """``(axis, value, in_degrees)`` of the six pose coordinates of a YAML mapping."""
-    if not isinstance(mapping, dict):
-        raise GeometryError(f"{where} must be a mapping {expected}")
-    extra = sorted(map(repr_key, set(mapping) - _POSE_KEYS))
-    if extra:
-        raise GeometryError(f"{where}: unknown key(s) {', '.join(extra)}")
-    out = []
-    for axis in POSE_NAMES:
-        if axis in "xyz":
-            if axis not in mapping:
-                raise GeometryError(f"{where}: missing key '{axis}'")
-            out.append((axis, mapping[axis], False))
-        else:
-            out.append((axis, *_angle_key(mapping, axis, where)))
-    return out
-
-
-def _pose_from_mapping(mapping: Any, where: str) -> NDArray[np.float64]:
-    pose = np.empty(6)
-    expected = "with keys x, y, z, a|a_deg, b|b_deg, c|c_deg"
-    for k, (axis, value, deg) in enumerate(_coordinates(mapping, where, expected)):
-        try:
-            v = float(value)
-        except (TypeError, ValueError, OverflowError):
-            raise GeometryError(f"{where}: '{axis}' must be a number, got {_short(value)}") from None
-        pose[k] = np.deg2rad(v) if deg else v
-    return pose
-
-
-def _box_from_mapping(mapping: Any) -> NDArray[np.float64]:
-    where = "workspace"
-    box = np.empty((6, 2))
-    coordinates = _coordinates(mapping, where, "of pose coordinates to [low, high]")
-    for k, (axis, value, deg) in enumerate(coordinates):
-        try:
-            rng = np.array(value, dtype=float)
-        except (TypeError, ValueError, OverflowError):
-            raise GeometryError(f"{where}: '{axis}' must be [low, high], got {_short(value)}") from None
-        if rng.shape != (2,):
-            raise GeometryError(f"{where}: '{axis}' must be [low, high], got {_short(value)}")
-        box[k] = np.deg2rad(rng) if deg else rng
-    return box
-
-
-def _deg(value: float) -> float:
-    return float(np.round(np.rad2deg(value), 12))
-
-
-def _pose_to_mapping(pose: NDArray[np.float64]) -> dict[str, float]:
-    out = {axis: float(pose[k]) for k, axis in enumerate("xyz")}
-    out.update({f"{axis}_deg": _deg(pose[k + 3]) for k, axis in enumerate("abc")})
-    return out
-
-
-def _box_to_mapping(box: NDArray[np.float64]) -> dict[str, list[float]]:
-    out = {axis: box[k].tolist() for k, axis in enumerate("xyz")}
-    out.update({f"{axis}_deg": [_deg(v) for v in box[k + 3]] for k, axis in enumerate("abc")})
-    return out
+        return geometry_mapping(self)

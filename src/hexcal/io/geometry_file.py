@@ -11,7 +11,7 @@ from hexcal.core.geometry import Geometry
 from hexcal.core.presets import PRESETS, preset
 from hexcal.errors import GeometryError, InputError
 from hexcal.io.files import atomic_write, plain
-from hexcal.io.inputs import load_yaml
+from hexcal.io.inputs import load_yaml, parse_yaml
 from hexcal.io.outputs import OutputSet
 
 
@@ -37,7 +37,26 @@ def load_geometry(spec: str | os.PathLike[str]) -> Geometry:
 
 
 def save_geometry(geometry: Geometry, path: str | os.PathLike[str], outputs: OutputSet | None = None) -> None:
-    """Write a geometry as YAML (staged in ``outputs`` or the active output set, or atomically)."""
+    """Write a geometry as YAML (staged in ``outputs`` or the active output set, or atomically).
+
+    The text is checked first with the rules of :func:`load_geometry` (:func:`check_geometry_text`):
+    hexcal never writes a geometry file it would refuse to read.
+    """
     text = yaml.safe_dump(plain(geometry.to_dict()), sort_keys=False, default_flow_style=None)
+    check_geometry_text(text, os.fspath(path))
     with atomic_write(path, outputs) as fh:
         fh.write(text)
+
+
+def check_geometry_text(text: str, name: str) -> Geometry:
+    """The geometry of a YAML text, read and checked as :func:`load_geometry` reads a file;
+    :class:`GeometryError` naming ``name`` (the file about to be written) otherwise."""
+    try:
+        geometry = Geometry.from_dict(parse_yaml(text, name))
+        geometry.check_plausible()
+    except (GeometryError, InputError) as exc:
+        reason = str(exc).removeprefix(f"{name}: ")
+        raise GeometryError(
+            f"{name}: not written: hexcal would refuse to read this geometry ({reason})"
+        ) from None
+    return geometry

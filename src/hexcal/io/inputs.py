@@ -10,7 +10,9 @@
 - YAML is read with :func:`load_yaml`: PyYAML's safe loader (no tags that build Python
   objects), limited to :data:`MAX_YAML_DEPTH` levels of nesting and :data:`MAX_YAML_NODES`
   nodes once aliases are expanded, so that an alias bomb ("billion laughs") or a deeply
-  nested document fails at once with one line instead of exhausting memory or the stack.
+  nested document fails at once with one line instead of exhausting memory or the stack;
+  a key given twice in one mapping is refused, naming the key and both lines (YAML requires
+  unique keys; PyYAML would silently keep the last).
 Input files are opened for reading only and never modified.
 """
 
@@ -140,7 +142,8 @@ def too_many_rows(path: str, max_rows: int) -> InputError:
 
 
 class YamlLimitError(yaml.YAMLError):
-    """A YAML document beyond :data:`MAX_YAML_DEPTH` or :data:`MAX_YAML_NODES`."""
+    """A YAML document beyond :data:`MAX_YAML_DEPTH` or :data:`MAX_YAML_NODES`, or with a
+    key given twice in one mapping."""
 
     def __init__(self, problem: str, mark: Any) -> None:
         super().__init__(problem)
@@ -183,6 +186,28 @@ class LimitedSafeLoader(yaml.SafeLoader):
         self._sizes[id(node)] = self._nodes - start
         return node
 
+    def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+        """A mapping, refusing a key given twice (merge keys ``<<`` may be overridden)."""
+        if isinstance(node, yaml.MappingNode):
+            seen: dict[Any, int] = {}
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                line = key_node.start_mark.line + 1
+                try:
+                    first = seen.get(key)
+                    seen.setdefault(key, line)
+                except TypeError:  # an unhashable key: PyYAML's own error follows
+                    continue
+                if first is not None:
+                    shown = repr(key) if len(repr(key)) <= 60 else repr(key)[:57] + "..."
+                    where = f"lines {first} and {line}" if first != line else f"line {line}"
+                    raise YamlLimitError(
+                        f"the key {shown} is given twice in one mapping, on {where}", key_node.start_mark
+                    )
+        return super().construct_mapping(node, deep)
+
     def _count(self, size: int, mark: Any) -> None:
         self._nodes += size
         if self._nodes > self.max_nodes:
@@ -202,7 +227,17 @@ def load_yaml(path: str | os.PathLike[str], what: str = "YAML") -> Any:
         What the file is, for messages ("geometry file").
     """
     name = os.fspath(path)
-    text = read_text(name, max_bytes=MAX_YAML_BYTES)
+    return parse_yaml(read_text(name, max_bytes=MAX_YAML_BYTES), name, what)
+
+
+def parse_yaml(text: str, name: str, what: str = "YAML") -> Any:
+    """Parse YAML text as :func:`load_yaml` parses a file (``name`` for messages).
+
+    >>> parse_yaml("a: 1\\nb: 2\\na: 3\\n", "g.yaml")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hexcal.errors.InputError: g.yaml: line 3: not valid YAML (the key 'a' is given twice ... lines 1 and 3)
+    """
     loader: LimitedSafeLoader | None = None
     try:
         loader = LimitedSafeLoader(text)

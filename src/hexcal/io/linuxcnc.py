@@ -23,9 +23,21 @@ leg gain                    ``g_i``                                scale / ``g_i
 Everything here is text in, text out: :func:`export_linuxcnc` returns the two files'
 contents and :func:`hexcal.io.linuxcnc_import.import_linuxcnc` parses given texts. Parsing errors raise
 :class:`LinuxCNCFormatError` (a ``ValueError``) with one line naming the file and line.
+
+LinuxCNC executes the HAL file (``halcmd`` runs every line: ``loadusr`` starts programs) and
+reads the INI file, so nothing from an input reaches them except as a number or inside a
+one-line comment (:func:`comment_line`): characters that are not printable (line breaks,
+other control and format characters, Unicode line separators) are written as ``\\xNN`` /
+``\\uNNNN`` escapes, a comment never ends in a backslash (``halcmd`` and LinuxCNC's INI
+reader both continue such a line onto the next, comments included) and stays under
+:data:`MAX_LINE_BYTES` (LinuxCNC's INI reader reads a longer line as two, the second parsed as
+a key; ``halcmd`` refuses lines of about a kilobyte). :func:`check_export_lines` then checks
+every line written against the grammar of the two files.
 """
 
 from __future__ import annotations
+
+import re
 
 import numpy as np
 from numpy.typing import NDArray
@@ -68,6 +80,100 @@ class LinuxCNCFormatError(InputError):
     """A HAL or INI file cannot be read; the message names the file and the line."""
 
 
+#: A number as C's ``strtod`` reads it (no hex, inf or nan): the only values written.
+NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+
+#: Longest comment line written, in bytes (UTF-8). LinuxCNC's INI reader reads a line of
+#: 255 bytes or more in pieces, each parsed as a line of its own (measured with LinuxCNC
+#: 2.9's ``inivar``: ``#`` and 254 characters, then ``K = 1`` on the same line, sets ``K``);
+#: ``halcmd`` refuses a line of about 1000 bytes.
+MAX_LINE_BYTES = 200
+
+#: Characters of one input value (a name, a path, a calibration field) in a comment.
+MAX_VALUE_CHARS = 80
+
+_HAL_LINE = re.compile(r"setp genhexkins\.(base|platform)\.[0-5]\.[xyz] (?P<v>\S+)")
+_INI_SECTION = re.compile(r"\[(TRAJ|JOINT_[0-5]|AXIS_[XYZABC])\]")
+_INI_WORDS = {"LINEAR_UNITS = mm", "ANGULAR_UNITS = degree"}
+_INI_KEY = re.compile(r"(HOME|HOME_OFFSET|MIN_LIMIT|MAX_LIMIT|HEXCAL_LEG_GAIN) = (?P<v>\S+( \S+)*)")
+
+
+def printable(value: object, most: int = MAX_VALUE_CHARS) -> str:
+    """``str(value)`` with every character that is not printable escaped, cut to ``most``.
+
+    Line breaks, tabs, other control and format characters and the Unicode line and
+    paragraph separators become ``\\xNN``, ``\\uNNNN`` or ``\\UNNNNNNNN``; printable
+    characters (accents included) stay as they are.
+
+    >>> printable("m1\\nloadusr -w touch x")
+    'm1\\\\x0aloadusr -w touch x'
+    >>> printable("x" * 100, most=10)
+    'xxxxxxx...'
+    """
+    out = []
+    for ch in str(value):
+        code = ord(ch)
+        if ch.isprintable():
+            out.append(ch)
+        elif code < 0x100:
+            out.append(f"\\x{code:02x}")
+        elif code < 0x10000:
+            out.append(f"\\u{code:04x}")
+        else:
+            out.append(f"\\U{code:08x}")
+    text = "".join(out)
+    return text if len(text) <= most else text[: max(0, most - 3)] + "..."
+
+
+def comment_line(text: str) -> str:
+    """``# text`` as one safe comment line of a HAL or INI file (see the module's notes).
+
+    >>> comment_line("name a\\\\")
+    '# name a\\\\x5c'
+    """
+    line = "# " + printable(text, most=MAX_LINE_BYTES)
+    if line.endswith("\\"):  # halcmd and the INI reader would join the next line to it
+        line = line[:-1] + "\\x5c"
+    while len(line.encode("utf-8")) > MAX_LINE_BYTES:  # printable non-ASCII: several bytes each
+        line = line[:-4] + "..."
+    return line
+
+
+def _comment_ok(line: str) -> bool:
+    return (
+        line.startswith("#")
+        and line.isprintable()
+        and not line.endswith("\\")
+        and len(line.encode("utf-8")) <= MAX_LINE_BYTES
+    )
+
+
+def check_export_lines(name: str, text: str) -> None:
+    """Refuse to write a HAL or INI text with a line that is not a comment, a known section
+    or key, or a ``setp`` of a ``genhexkins`` coordinate to a number (ValueError).
+
+    The export builds its lines from numbers and :func:`comment_line`; this check makes sure
+    that no other text can ever reach a file that LinuxCNC executes.
+    """
+    hal = name.endswith(".hal")
+    for number, line in enumerate(text.split("\n")[:-1] if text.endswith("\n") else text.split("\n"), 1):
+        if not line or _comment_ok(line):
+            continue
+        if hal:
+            match = _HAL_LINE.fullmatch(line)
+            values = [match["v"]] if match else None
+        elif _INI_SECTION.fullmatch(line) or line in _INI_WORDS:
+            continue
+        else:
+            match = _INI_KEY.fullmatch(line)
+            values = match["v"].split(" ") if match else None
+        if not values or not all(NUMBER.fullmatch(v) for v in values):
+            raise ValueError(
+                f"{name}: line {number} would be neither a comment nor a number ({printable(line, 60)!r}); "
+                "nothing was written"
+            )
+
+
 # -- export -------------------------------------------------------------------------
 
 
@@ -86,21 +192,22 @@ def _xyz_degrees(angles: NDArray[np.float64], euler: str) -> NDArray[np.float64]
 
 
 def _header(geometry: Geometry, title: str, source: str, sha256: str | None, date: str | None) -> list[str]:
-    lines = [f"# {title} -- written by hexcal's `hexcal export linuxcnc`"]
-    name = f" (name {geometry.name})" if geometry.name else ""
-    lines.append(f"# source geometry: {source}{name}")
+    """The comment lines at the top of both files; every input value through :func:`printable`."""
+    lines = [comment_line(f"{title} -- written by hexcal's `hexcal export linuxcnc`")]
+    name = f" (name {printable(geometry.name)})" if geometry.name else ""
+    lines.append(comment_line(f"source geometry: {printable(source)}{name}"))
     if sha256:
-        lines.append(f"# sha256 of the geometry file: {sha256}")
+        lines.append(comment_line(f"sha256 of the geometry file: {printable(sha256)}"))
     cal = geometry.calibration
     if cal:
-        parts = [f"method {cal.get('method', 'unknown')}"]
+        parts = [f"method {printable(cal.get('method', 'unknown'))}"]
         if "poses" in cal:
-            parts.append(f"{cal['poses']} poses")
+            parts.append(f"{printable(cal['poses'])} poses")
         if cal.get("data"):
-            parts.append(f"data {cal['data']}")
+            parts.append(f"data {printable(cal['data'])}")
         cal_date = cal.get("date") or (f"{date} (geometry file modified)" if date else "unknown")
-        parts.append(f"date {cal_date}")
-        lines.append("# calibration: " + ", ".join(parts))
+        parts.append(f"date {printable(cal_date)}")
+        lines.append(comment_line("calibration: " + ", ".join(parts)))
     else:
         lines.append("# calibration: none (this geometry was not identified by hexcal)")
     lines.append("# units: mm; the machine's INI must have [TRAJ] LINEAR_UNITS = mm, ANGULAR_UNITS = degree")
@@ -108,7 +215,7 @@ def _header(geometry: Geometry, title: str, source: str, sha256: str | None, dat
         "# angles: LinuxCNC's A, B, C are hexcal's Euler sequence 'xyz' in degrees (extrinsic roll A"
     )
     lines.append("#   about X, pitch B about Y, yaw C about Z, all fixed axes: R = Rz(C) Ry(B) Rx(A))")
-    if geometry.euler != LINUXCNC_EULER:
+    if geometry.euler != LINUXCNC_EULER:  # a checked sequence: three letters of xyz or XYZ
         lines.append(
             f"#   NOTE: this geometry's poses use the sequence {geometry.euler!r}: its angles are not"
         )
@@ -243,7 +350,10 @@ def export_linuxcnc(
                 f"# sequence {geometry.euler!r}, which is not a box in LinuxCNC's A B C",
                 "",
             ]
-    return {HAL_FILE: "\n".join(hal).rstrip("\n") + "\n", INI_FILE: "\n".join(ini).rstrip("\n") + "\n"}
+    files = {HAL_FILE: "\n".join(hal).rstrip("\n") + "\n", INI_FILE: "\n".join(ini).rstrip("\n") + "\n"}
+    for file_name, text in files.items():
+        check_export_lines(file_name, text)
+    return files
 
 
 def euler_warning(geometry: Geometry) -> str | None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -19,6 +19,7 @@ from hexcal.io.linuxcnc import (
     GENHEXKINS_DEFAULT_BASE,
     GENHEXKINS_DEFAULT_PLATFORM,
     LINUXCNC_EULER,
+    NUMBER,
     LinuxCNCFormatError,
 )
 
@@ -33,19 +34,39 @@ _LINEAR_UNITS = {
     "inches": 25.4,
 }
 _COORD = re.compile(r"genhexkins\.(base|platform)\.(\d+)\.([xyz])")
-# a number as C's strtod reads it, without hex, inf and nan
-_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
 _INI_REF = re.compile(r"\[([^\]\s]+)\]([^\s\[\]]+)")
 
 
 @dataclass(frozen=True)
 class IniFile:
-    """A LinuxCNC INI file: ``(section, key) -> (value, line)``; the first occurrence wins."""
+    """A LinuxCNC INI file: ``(section, key) -> (value, line)`` of each key's first occurrence.
+
+    A key that hexcal reads (:meth:`get`) must be set once, in a section that appears once:
+    otherwise the file is refused, naming the file, the line and the key. (LinuxCNC takes
+    the first value and reads only the first section of a name; a repeated key it does not
+    read, such as ``[HAL] HALFILE``, is normal and stays allowed.)
+    """
 
     name: str
     values: dict[tuple[str, str], tuple[str, int]]
+    repeated: dict[tuple[str, str], tuple[int, int]] = field(default_factory=dict)
+    """``(section, key) -> (first line, next line)`` of keys set more than once."""
+    repeated_sections: dict[str, tuple[int, int]] = field(default_factory=dict)
+    """``section -> (first line, next line)`` of section headers given more than once."""
 
     def get(self, section: str, key: str) -> tuple[str, int] | None:
+        if section in self.repeated_sections:
+            first, again = self.repeated_sections[section]
+            raise LinuxCNCFormatError(
+                f"{self.name}: line {again}: section [{section}] appears again (first on line {first}), "
+                f"and hexcal reads its {key}; give each section once"
+            )
+        if (section, key) in self.repeated:
+            first, again = self.repeated[section, key]
+            raise LinuxCNCFormatError(
+                f"{self.name}: line {again}: [{section}] {key} is set again (first on line {first}); "
+                "give it once"
+            )
         return self.values.get((section, key))
 
     def number(self, section: str, key: str) -> float | None:
@@ -64,7 +85,7 @@ class IniFile:
 
 
 def _parse_number(text: str, file: str, line: int, what: str) -> float:
-    if not _NUMBER.fullmatch(text):
+    if not NUMBER.fullmatch(text):
         raise LinuxCNCFormatError(f"{file}: line {line}: {what}: {text!r} is not a number")
     value = float(text)
     if not math.isfinite(value):
@@ -75,8 +96,11 @@ def _parse_number(text: str, file: str, line: int, what: str) -> float:
 def parse_ini(text: str, name: str = "INI file") -> IniFile:
     """Read a LinuxCNC INI file (``[SECTION]``, ``KEY = VALUE``, ``#`` and ``;`` comments)."""
     values: dict[tuple[str, str], tuple[str, int]] = {}
+    repeated: dict[tuple[str, str], tuple[int, int]] = {}
+    sections: dict[str, int] = {}
+    repeated_sections: dict[str, tuple[int, int]] = {}
     section: str | None = None
-    for number, raw in enumerate(text.splitlines(), start=1):
+    for number, raw in enumerate(text.split("\n"), start=1):  # LinuxCNC's line ends: \n only
         line = raw.strip()
         if not line or line[0] in "#;":
             continue
@@ -85,14 +109,19 @@ def parse_ini(text: str, name: str = "INI file") -> IniFile:
             if not match:
                 raise LinuxCNCFormatError(f"{name}: line {number}: malformed section header {line!r}")
             section = match.group(1).strip()
+            if section in sections:
+                repeated_sections.setdefault(section, (sections[section], number))
+            sections.setdefault(section, number)
             continue
         key, sep, value = line.partition("=")
         if not sep or not key.strip():
             raise LinuxCNCFormatError(f"{name}: line {number}: expected KEY = VALUE, got {line!r}")
         if section is None:
             raise LinuxCNCFormatError(f"{name}: line {number}: {key.strip()} is outside any [SECTION]")
-        values.setdefault((section, key.strip()), (value.strip(), number))
-    return IniFile(name, values)
+        found = values.setdefault((section, key.strip()), (value.strip(), number))
+        if found[1] != number:
+            repeated.setdefault((section, key.strip()), (found[1], number))
+    return IniFile(name, values, repeated, repeated_sections)
 
 
 @dataclass(frozen=True)
@@ -116,7 +145,7 @@ def parse_hal(text: str, name: str = "HAL file", ini: IniFile | None = None) -> 
     seen: dict[tuple[str, int, int], int] = {}
     options: dict[str, float] = {}
     warnings: list[str] = []
-    for number, raw in enumerate(text.splitlines(), start=1):
+    for number, raw in enumerate(text.split("\n"), start=1):  # halcmd's line ends: \n only
         line = raw.split("#", 1)[0].strip()
         tokens = line.split()
         if not tokens or tokens[0] != "setp" or len(tokens) < 2 or not tokens[1].startswith("genhexkins."):

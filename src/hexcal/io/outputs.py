@@ -187,7 +187,10 @@ class OutputSet:
             if name == STDOUT:
                 continue
             if name in self._outputs:
-                raise OutputError(f"{name}: two outputs name the same file; choose another name")
+                raise OutputError(
+                    f"{name}: is also another output of this command (two outputs name the same file); "
+                    "choose another name"
+                )
             self._check_output(name)
 
     def _check_input(self, name: str) -> None:
@@ -206,7 +209,10 @@ class OutputSet:
             raise OutputError(f"{name}: this output is also an input{same}; choose another name")
         for other, out in self._outputs.items():
             if path_key(str(out.target)) == key or os.path.realpath(name) == str(out.target):
-                raise OutputError(f"{name}: two outputs name the same file ({other}); choose another name")
+                raise OutputError(
+                    f"{name}: is also another output of this command, {other} (two outputs name the same "
+                    "file); choose another name"
+                )
         target, existing = check_target(name)
         self._outputs[name] = _Output(name, target, existing)
 

@@ -10,25 +10,22 @@ import yaml
 from hexcal.errors import InputError
 from hexcal.instruments.setup import Setup
 from hexcal.io.files import atomic_write, plain
+from hexcal.io.inputs import load_yaml
 
 
 def load_setup(path: str | os.PathLike[str]) -> Setup:
-    """A setup from a YAML file; every problem is one :class:`InputError` line naming the file."""
+    """A setup from a YAML file; every problem is one :class:`InputError` line naming the file.
+
+    Read like a geometry file, with :func:`hexcal.io.inputs.load_yaml`: regular files only,
+    safe tags, a size limit, limits on nesting and on aliases (an alias bomb fails at once),
+    and no key given twice in a mapping.
+    """
     path = Path(path)
-    try:
-        with open(path, encoding="utf-8") as fh:
-            data = yaml.safe_load(fh)
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such setup file") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a folder, not a setup file") from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}: " if mark is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise InputError(f"{path}: {where}not valid YAML ({problem})") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read: {exc}") from None
+    if not os.path.lexists(path):
+        raise InputError(f"{path}: no such setup file")
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder, not a setup file")
+    data = load_yaml(path, "YAML")
     try:
         return Setup.from_dict(data)
     except InputError as exc:
