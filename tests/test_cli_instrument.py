@@ -220,8 +220,6 @@ def test_options_that_do_not_apply_are_one_line(campaign: Path, capsys: pytest.C
     d = campaign
     poses, true = str(d / "poses.csv"), str(d / "true.yaml")
     for argv, words in (
-        (["validate", "--geometry", "paper-hmt", "--setup", str(d / "start.yaml"),
-          "--data", str(d / "held-export.csv")], "the instrument frame is auto"),
         (["synthesize", "--nominal", "paper-hmt", "--true", "paper-hmt-true", "--poses", poses,
           "--setup", true, "--missing-rate", "1.5", "--out", str(d / "z.csv")], "--missing-rate"),
         (["synthesize", "--nominal", "paper-hmt", "--true", "paper-hmt-true", "--poses", poses,

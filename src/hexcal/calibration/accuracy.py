@@ -15,6 +15,9 @@ Imports :mod:`hexcal.core`.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -215,4 +218,97 @@ def predicted_pose_accuracy(
         "orientation_rms_rad": float(np.sqrt(np.mean(orientation**2))),
         "orientation_max_rad": float(orientation.max()),
         "poses": len(poses),
+    }
+
+
+def expected_validation(
+    geometry: Geometry,
+    covariance: ArrayLike,
+    sessions: Sequence[tuple[Any, NDArray[np.float64], Any]],
+    mask: ArrayLike | None = None,
+    rigid: ArrayLike | None = None,
+    folds: int = 5,
+) -> dict[str, Any]:
+    """What ``validate`` should measure on a new session measured like these: the same
+    quantities (pose error of the forward kinematics of the readings against the pose the
+    instrument gives, leg residuals at that pose), the noise included.
+
+    Parameters
+    ----------
+    geometry : Geometry
+        The calibrated machine.
+    covariance : array_like, shape (n, n)
+        Covariance of its identified machine parameters (those of ``mask``).
+    sessions : sequence of (instrument, poses, noise)
+        Each session's calibrated instrument, its poses ``(m, 6)`` (the new session is taken
+        to be measured at such poses) and its noise model.
+    mask, rigid
+        As for :func:`predicted_pose_errors`; the rigid motions are removed as the
+        re-registration of the frames removes them.
+    folds : int
+        The folds of validation's re-registration of instruments with free quantities.
+
+    Returns
+    -------
+    dict
+        ``position_rms_mm``, ``orientation_rms_rad``, ``leg_rms_mm`` (NaN where the instrument
+        gives no pose), ``poses``, ``folds`` and ``from_parameters``: the same three figures
+        of the parameters' uncertainty alone (no noise).
+
+    Notes
+    -----
+    At a pose with pose Jacobian ``J`` (leg lengths per pose), error map ``E``
+    (:func:`pose_error_map`), leg Jacobian ``A`` and the covariance ``Σp`` of the pose the
+    instrument's values give (:meth:`~hexcal.instruments.MeasurementModel.platform_covariance`),
+    the pose error ``FK(readings) - pose`` has the covariance
+    ``E Σθ Eᵀ + (1 + h) (σ_leg² J⁻¹ J⁻ᵀ + Σp)`` and the leg residual
+    ``A Σθ Aᵀ + (1 + h) (σ_leg² I + J Σp Jᵀ)``. ``h = q / (k m (F - 1) / F)`` is the average
+    leverage of a cross-validated registration of ``q`` free quantities from ``k`` values per
+    pose on ``m (F - 1) / F`` poses (0 when the instrument's quantities are fixed).
+    """
+    cov = np.asarray(covariance, dtype=float)
+    pos2, rot2, leg2, ppos2, prot2, pleg2 = ([] for _ in range(6))
+    for instrument, poses, noise in sessions:
+        poses = as_poses(poses).reshape(-1, 6)
+        e = pose_error_map(geometry, poses, mask)
+        w = rotation_vector_map(geometry, poses)
+        a = machine_jacobian(geometry, poses, mask)
+        e_pos, e_rot = e[:, :3], np.einsum("tij,tjk->tik", w, e[:, 3:])
+        own = cov
+        if rigid is not None and np.size(rigid):
+            own = without_rigid_motions(cov, e_pos, e_rot, np.asarray(rigid, dtype=float), geometry)
+        jac = pose_jacobian(geometry, poses)
+        jac_inv = np.linalg.inv(jac)
+        setup = instrument.parameters().values
+        measured = instrument.platform_covariance(setup, poses, noise, geometry.euler)
+        free = int(np.sum(instrument.parameters().vary)) if setup.size else 0
+        h = free / (instrument.size * len(poses) * (folds - 1) / folds) if free else 0.0
+        leg_var = noise.sigmas[0] ** 2
+        noise_pose = leg_var * jac_inv @ np.swapaxes(jac_inv, -1, -2) + measured
+        noise_leg = leg_var * np.eye(6) + jac @ measured @ np.swapaxes(jac, -1, -2)
+        par_pos = np.einsum("tip,pq,tiq->t", e_pos, own, e_pos)
+        par_rot = np.einsum("tip,pq,tiq->t", e_rot, own, e_rot)
+        par_leg = np.einsum("tip,pq,tiq->t", a, own, a) / 6
+        ppos2.append(par_pos)
+        prot2.append(par_rot)
+        pleg2.append(par_leg)
+        pos2.append(par_pos + (1 + h) * np.trace(noise_pose[:, :3, :3], axis1=1, axis2=2))
+        rot_noise = w @ noise_pose[:, 3:, 3:] @ np.swapaxes(w, -1, -2)
+        rot2.append(par_rot + (1 + h) * np.trace(rot_noise, axis1=1, axis2=2))
+        leg2.append(par_leg + (1 + h) * np.trace(noise_leg, axis1=1, axis2=2) / 6)
+
+    def rms(parts: list[NDArray[np.float64]]) -> float:
+        return float(np.sqrt(np.mean(np.concatenate(parts))))
+
+    return {
+        "position_rms_mm": rms(pos2),
+        "orientation_rms_rad": rms(rot2),
+        "leg_rms_mm": rms(leg2),
+        "poses": int(sum(len(p) for p in pos2)),
+        "folds": folds,
+        "from_parameters": {
+            "position_rms_mm": rms(ppos2),
+            "orientation_rms_rad": rms(prot2),
+            "leg_rms_mm": rms(pleg2),
+        },
     }

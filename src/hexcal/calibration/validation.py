@@ -11,6 +11,17 @@ Validation asks of observations that were not used to identify:
   the forward kinematics of the readings: position (mm) and rotation angle (rad);
 - **leg residuals**: ``|o + R s_i - u_i| - f(θ_i, dl_i)`` at that platform pose.
 
+An instrument whose quantities are not all fixed (a frame given as ``auto`` or not in the
+setup's ``fixed:``, a tool, targets) may have moved since the calibration: a tracker set up
+again, a motion-capture system re-zeroed. Its free quantities are then **re-registered** on the
+held-out session, by cross-validation, so that the figures describe the calibration and not the
+moved instrument: the poses are dealt at random (``seed``) into ``folds`` folds; the instrument
+fitted (machine fixed, maximum likelihood) on the other folds predicts each fold's poses, so no
+pose is judged by frames it helped to fit. The default, 5 folds, fits the frames on 80 % of the
+session (their own error then adds about ``p / (0.8 m k)`` of the noise variance for ``p``
+free quantities, ``m`` poses and ``k`` values per pose) and judges every pose once. The
+registration on all the poses is reported beside the figures.
+
 Compensation (leg commands for targets) is :mod:`hexcal.core.compensation`.
 """
 
@@ -24,11 +35,18 @@ from numpy.typing import NDArray
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, pose_errors
-from hexcal.errors import ValidationError
+from hexcal.core.noise import NoiseModel
+from hexcal.errors import UsageError, ValidationError
 from hexcal.estimation.problem import as_sessions
-from hexcal.instruments.base import MeasurementModel
+from hexcal.instruments.base import MeasurementModel, Session
 
 _POSE_ITERATIONS = 30
+
+#: Folds of the cross-validated re-registration (module docstring).
+DEFAULT_FOLDS = 5
+
+#: Poses a fold's registration must keep per free quantity of the instrument, at least.
+_POSES_PER_QUANTITY = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,6 +70,10 @@ class ValidationResult:
         What the instrument is.
     value_labels : tuple of str
         Labels of the columns of a per-value error (the targets ``t1``, ...).
+    registration : dict, optional
+        The re-registration of the instrument's free quantities (None when all are fixed):
+        ``folds``, ``seed``, ``quantities`` (their names), ``values`` and ``stderr`` fitted on
+        all the poses, ``leg_rms_mm`` of that fit at its estimated poses, and ``noise``.
     """
 
     ids: tuple[str, ...]
@@ -62,6 +84,7 @@ class ValidationResult:
     instrument_errors: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     instrument: str = "full pose in the base frame"
     value_labels: tuple[str, ...] = ()
+    registration: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, object]:
         """Summary and per-observation errors, JSON-ready (mm and rad)."""
@@ -74,6 +97,7 @@ class ValidationResult:
             "position_error": self.position_error.tolist(),
             "orientation_error": self.orientation_error.tolist(),
             "instrument_errors": {k: v.tolist() for k, v in self.instrument_errors.items()},
+            "registration": self.registration,
         }
 
     def summary(self) -> dict[str, float]:
@@ -130,7 +154,15 @@ def _least_squares_steps(jac: NDArray[np.float64], r: NDArray[np.float64]) -> tu
     return np.linalg.solve(safe, grad[..., None])[..., 0], det_ok
 
 
-def validate(geometry: Geometry, data: Any, instrument: MeasurementModel | None = None) -> ValidationResult:
+def validate(
+    geometry: Geometry,
+    data: Any,
+    instrument: MeasurementModel | None = None,
+    *,
+    folds: int = DEFAULT_FOLDS,
+    seed: int = 0,
+    noise: NoiseModel | None = None,
+) -> ValidationResult:
     """Prediction errors of ``geometry`` (and a calibrated instrument) on held-out data.
 
     Parameters
@@ -141,22 +173,107 @@ def validate(geometry: Geometry, data: Any, instrument: MeasurementModel | None 
         One session, or one data set read by ``instrument`` (default the full pose in the
         base frame).
     instrument : MeasurementModel, optional
-        The calibrated instrument of ``data`` (its frame known).
+        The instrument of ``data``.
+    folds : int
+        Folds of the re-registration of an instrument with free quantities (module
+        docstring); at least 2.
+    seed : int
+        Seed of the assignment of poses to folds.
+    noise : NoiseModel, optional
+        The noise the registrations weight with (default learned from the session).
 
     Raises
     ------
     ValidationError
         When the forward kinematics of some leg readings does not converge (named by id), or
-        the instrument's frame is unknown.
+        the session has too few poses to re-register the instrument in ``folds`` folds.
     """
     session = as_sessions(data, instrument)[0]
+    inst = session.instrument
+    if not _free(inst):
+        return _evaluate(geometry, session)
+    if folds < 2:
+        raise UsageError(f"folds must be at least 2, got {folds}")
+    m, free = len(session), int(np.sum(_free_vary(inst)))
+    smallest = m - -(-m // folds)  # the smallest training set: all but the largest fold
+    if smallest < max(_POSES_PER_QUANTITY * free, 3):
+        raise ValidationError(
+            f"{m} poses are too few to re-register the instrument's {free} free quantities in {folds} "
+            f"folds (each fold's registration keeps {smallest}): measure more poses, or fix the frame "
+            "and tool in the setup"
+        )
+    whole = _register(geometry, session, noise)
+    noise = whole.noises[0] if noise is None else noise
+    fold = np.random.default_rng(seed).permutation(m) % folds
+    parts = []
+    for f in range(folds):
+        train, test = np.flatnonzero(fold != f), np.flatnonzero(fold == f)
+        registered = _register(geometry, session.subset(train), noise).calibrated_instruments()[0]
+        parts.append((test, _evaluate(geometry, session.replace(instrument=registered).subset(test))))
+    machine = set(geometry.machine_names())
+    names = [n for n in whole.names if n not in machine]
+    record = {
+        "folds": folds,
+        "seed": seed,
+        "quantities": names,
+        "values": {n: whole.parameters[n] for n in names},
+        "stderr": {n: whole.standard_errors[n] for n in names},
+        "leg_rms_mm": whole.leg_rms_after,
+        "noise": noise.describe(),
+    }
+    return _merge(parts, m, record)
+
+
+def _free_vary(inst: MeasurementModel) -> NDArray[np.bool_]:
+    return np.asarray(inst.parameters().vary, dtype=bool)
+
+
+def _free(inst: MeasurementModel) -> bool:
+    """Whether the instrument has quantities validation re-registers."""
+    return inst.unregistered or bool(_free_vary(inst).any())
+
+
+def _register(geometry: Geometry, session: Session, noise: NoiseModel | None) -> Any:
+    """The instrument's free quantities fitted to a session with the machine fixed."""
+    from hexcal.calibration.identify import estimate
+
+    return estimate(
+        geometry, session, "ml", fit=(), noise="auto" if noise is None else noise, with_bound=False,
+        diagnose=False, verdict=False,
+    )  # fmt: skip
+
+
+def _merge(parts: list[tuple[NDArray[np.intp], ValidationResult]], m: int, record: dict) -> ValidationResult:
+    """The folds' validations in the session's order."""
+    order = np.empty(m, dtype=np.intp)
+    order[np.concatenate([index for index, _ in parts])] = np.arange(m)
+    results = [r for _, r in parts]
+
+    def stack(get: Any) -> NDArray[np.float64]:
+        return np.concatenate([get(r) for r in results])[order]
+
+    ids = tuple(np.array([i for r in results for i in r.ids], dtype=object)[order].tolist())
+    errors = {k: stack(lambda r, k=k: r.instrument_errors[k]) for k in results[0].instrument_errors}
+    first = results[0]
+    return ValidationResult(
+        ids,
+        stack(lambda r: r.leg_residuals),
+        stack(lambda r: r.model_poses),
+        stack(lambda r: r.position_error),
+        stack(lambda r: r.orientation_error),
+        errors,
+        first.instrument,
+        first.value_labels,
+        record,
+    )
+
+
+def _evaluate(geometry: Geometry, session: Session) -> ValidationResult:
+    """The validation of a session whose instrument is known."""
     inst, values = session.instrument, session.data
     setup = inst.parameters().values
     if inst.unregistered:
-        raise ValidationError(
-            "validation needs a calibrated setup (the instrument frame is auto): give the setup "
-            "that identify wrote with --setup-out"
-        )
+        raise ValidationError("validation needs the instrument frame (it is auto): register it first")
     ids = inst.ids(values)
     readings = inst.readings(values)
     lengths = leg_lengths(geometry, readings)

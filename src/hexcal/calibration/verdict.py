@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.calibration.accuracy import machine_mask, predicted_pose_accuracy
+from hexcal.calibration.accuracy import expected_validation, machine_mask, predicted_pose_accuracy
 from hexcal.core.geometry import Geometry
 from hexcal.errors import HexcalError
 
@@ -340,11 +340,44 @@ def assess(
                 acc,
             )
         )
+        if problem is not None and noise is not None:
+            acc["validation"] = _expected_validation(result, problem, noise, cov, mask, rigid)
+            reasons.append(_validation_reason(acc["validation"]))
     verdict = Verdict(tuple(reasons), acc)
     if diagnose is not None:
         extra = diagnose(verdict.status == "fail")
         verdict = Verdict(tuple(reasons) + tuple(extra), acc)
     return verdict
+
+
+def _expected_validation(
+    result: Any, problem: Any, noise: Any, cov: Any, mask: Any, rigid: Any
+) -> dict[str, Any]:
+    """:func:`~hexcal.calibration.accuracy.expected_validation` at the sessions' poses (the
+    estimated true poses, else the measured ones) with their calibrated instruments."""
+    from hexcal.estimation.likelihood import session_noises
+
+    poses = result.poses if result.poses is not None else problem.measured_poses()
+    noises = session_noises(problem, noise)
+    instruments = result.instruments or tuple(p.instrument for p in problem.parts)
+    sessions = [
+        (inst, poses[part.rows], n) for part, inst, n in zip(problem.parts, instruments, noises, strict=True)
+    ]
+    return expected_validation(result.geometry, cov, sessions, mask, rigid)
+
+
+def _validation_reason(expected: dict[str, Any]) -> Reason:
+    own = expected["from_parameters"]
+    return Reason(
+        "expected-validation",
+        "info",
+        f"expected from validate on a new session at such poses (noise included, frames "
+        f"re-registered): position RMS {expected['position_rms_mm']:.3g} mm, orientation RMS "
+        f"{expected['orientation_rms_rad']:.3g} rad, leg RMS {expected['leg_rms_mm']:.3g} mm "
+        f"(the parameters' part: {own['position_rms_mm']:.3g} mm, {own['orientation_rms_rad']:.3g} rad, "
+        f"{own['leg_rms_mm']:.3g} mm)",
+        expected,
+    )
 
 
 def _rigid_note(rigid: Any) -> str:

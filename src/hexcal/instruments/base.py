@@ -216,9 +216,17 @@ class MeasurementModel(ABC):
     def platform_covariance(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], noise: NoiseModel, euler: str
     ) -> NDArray[np.float64]:
-        """Covariance ``(m, 6, 6)`` of the platform poses the observations give: the noise
-        through the inverse pose Jacobian, ``H⁻¹ Σ H⁻ᵀ`` (instruments that determine the pose)."""
-        inv = np.linalg.inv(self.pose_jacobian(setup, poses, euler))
+        """Covariance ``(m, 6, 6)`` of the platform poses that the instrument's values give with
+        its quantities known (the least-squares pose of each observation, as validation finds
+        it): the noise through the pseudo-inverse of the pose Jacobian, ``H⁺ Σ H⁺ᵀ`` (``H⁻¹ Σ
+        H⁻ᵀ`` for six values); NaN where the values cannot give the pose (rank below 6)."""
+        jac = self.pose_jacobian(setup, poses, euler)
+        if jac.shape[1] == 6:
+            inv = np.linalg.inv(jac)
+        else:
+            inv = np.linalg.pinv(jac)
+            sv = np.linalg.svd(jac, compute_uv=False)
+            inv[~(sv[:, -1] > 1e-9 * sv[:, 0]) if sv.shape[1] == 6 else slice(None)] = np.nan
         return inv @ self.covariance(noise) @ inv.transpose(0, 2, 1)
 
     # -- simulation and diagnoses ---------------------------------------------------------
