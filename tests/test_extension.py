@@ -26,9 +26,10 @@ import pytest
 from hexcal.calibration import estimate, validate
 from hexcal.core import NoiseModel, preset, random_poses
 from hexcal.core.geometry import Geometry
+from hexcal.errors import InputError
 from hexcal.estimation import Problem, apply_convention, cramer_rao, gauge_freedoms
 from hexcal.instruments import FullPoseModel, Measurements, Session, model_by_name
-from hexcal.io import load_geometry, read_sessions, save_geometry, write_session_data
+from hexcal.io import export_linuxcnc, load_geometry, read_sessions, save_geometry, write_session_data
 from hexcal.simulation import STRATEGIES, instrument_campaign, run_study, simulate_session
 from toy_extensions import BallBar, BarMeasurements, QuadraticLegs, registered
 
@@ -116,6 +117,8 @@ def test_registered_by_name_and_in_files(toys, tmp_path):
     again = load_geometry(tmp_path / "true.yaml")
     assert isinstance(again.leg_model, QuadraticLegs)
     np.testing.assert_allclose(again.machine_vector(), true.machine_vector(), rtol=1e-14)
+    with pytest.raises(InputError, match="quadratic model"):  # genhexkins struts are linear
+        export_linuxcnc(true)
     # ball-bar data files through the io registry (READERS, WRITERS)
     data = sessions(nominal, true, "ballbar", 5, 1, start=False)
     paths = [tmp_path / f"bar{k}.csv" for k in range(len(data))]
