@@ -13,7 +13,8 @@ with the toy legs:
 - the bound at the estimate is the bound at the truth (:func:`hexcal.estimation.cramer_rao`);
 - robust fitting leaves out one spoiled observation and only it;
 - validation on held-out observations is at the noise level, the nominal machine far off;
-- a small Monte Carlo study (:func:`hexcal.simulation.run_study`) attains the bound.
+- a small Monte Carlo study (:func:`hexcal.simulation.run_study`) attains the bound;
+- the planning analysis (:func:`hexcal.design.analyse_poses`) sees the same rank.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import pytest
 from hexcal.calibration import estimate, validate
 from hexcal.core import NoiseModel, preset, random_poses
 from hexcal.core.geometry import Geometry
+from hexcal.design import analyse_poses
 from hexcal.errors import InputError
 from hexcal.estimation import Problem, apply_convention, cramer_rao, gauge_freedoms
 from hexcal.instruments import FullPoseModel, Measurements, Session, model_by_name
@@ -208,3 +210,20 @@ def test_monte_carlo_study_attains_the_bound(case):
     row = cells[0].row()
     assert row["failures"] == 0
     assert abs(row["error_mean"] - row["bound"]) < 5 * row["error_std"] / np.sqrt(trials)
+
+
+def test_planning_sees_what_identification_sees(case, request):
+    """The observability analysis of planned poses (design) has the identification's rank.
+
+    Known limit: design's full-pose path (``analyse_poses`` without an instrument that needs
+    the errors-in-variables analysis) is written for the 48 parameters of linear legs."""
+    c = case
+    if c.kind == "pose" and c.legs != "linear":
+        request.applymarker(
+            pytest.mark.xfail(reason="design's full-pose path assumes linear legs", strict=True)
+        )
+    mask = c.nominal.machine_parameters(FIT[c.legs]).vary
+    instrument = c.data[0].instrument
+    poses = random_poses(c.nominal, len(c.data[0]), 1)
+    analysis = analyse_poses(c.nominal, poses, NOISE, mask, method="ml", instrument=instrument)
+    assert analysis.rank == len(analysis.names) - len(c.result.gauges)
