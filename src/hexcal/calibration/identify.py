@@ -42,11 +42,11 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import HexcalError, UsageError
 from hexcal.estimation.least_squares import fit_least_squares
-from hexcal.estimation.likelihood import fit_ml, session_noises
+from hexcal.estimation.likelihood import fit_ml
 from hexcal.estimation.noise_check import NoiseCheck, check_noise
 from hexcal.estimation.noise_estimation import NoiseEstimate, estimate_noise
 from hexcal.estimation.outliers import DEFAULT_ALPHA, SCREEN_THRESHOLD, pose_diagnostics
-from hexcal.estimation.problem import Problem, as_sessions
+from hexcal.estimation.problem import Problem, as_sessions, session_noises
 from hexcal.estimation.registry import DEFAULT_ESTIMATOR, get_estimator
 from hexcal.estimation.result import IdentificationResult
 from hexcal.estimation.robust import identify_robust, screen_poses

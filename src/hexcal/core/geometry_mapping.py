@@ -6,7 +6,7 @@ or, with ``_deg``, degrees) and the checks of the schema (docs/formats.md, "Geom
 from __future__ import annotations
 
 import copy
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -14,9 +14,6 @@ from numpy.typing import NDArray
 from hexcal.core.conventions import DEFAULT_EULER, POSE_NAMES
 from hexcal.core.legs import leg_model_from_dict
 from hexcal.errors import GeometryError
-
-if TYPE_CHECKING:
-    from hexcal.core.geometry import Geometry
 
 
 def short_repr(value: Any, most: int = 60) -> str:
@@ -80,8 +77,9 @@ def geometry_kwargs(data: Any) -> dict[str, Any]:
     return kwargs
 
 
-def geometry_mapping(geometry: Geometry) -> dict[str, Any]:
-    """The YAML mapping of a geometry (angles in degrees)."""
+def geometry_mapping(geometry: Any) -> dict[str, Any]:
+    """The YAML mapping of a :class:`~hexcal.core.geometry.Geometry` (angles in degrees; this
+    module does not import the class, which imports it)."""
     out: dict[str, Any] = {}
     if geometry.name:
         out["name"] = geometry.name

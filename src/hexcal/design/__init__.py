@@ -1,6 +1,6 @@
 """Planning a campaign: candidate poses, observability indices, identifiability,
-predicted accuracy, optimal pose selection and error maps. Imports the core, models and
-estimation layers.
+predicted accuracy, optimal pose selection and error maps. Imports the core, instruments,
+estimation and calibration layers.
 
 Modules, lowest first: ``candidates`` (candidate poses and their feasibility),
 ``identifiability`` (rank, null space, lost combinations by name), ``indices`` (O1–O5),

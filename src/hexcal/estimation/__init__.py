@@ -77,7 +77,7 @@ __getattr__, __dir__, __all__ = attach(
         "residual_covariances": "uncertainty",
         "rms": "result",
         "screen_poses": "robust",
-        "session_noises": "likelihood",
+        "session_noises": "problem",
         "transform_parameters": "gauge",
         "unidentifiable": "gauge",
         "whitened_jacobian": "uncertainty",

@@ -22,15 +22,13 @@ from hexcal.core.linalg import whitening
 from hexcal.core.noise import NoiseModel
 from hexcal.estimation.covariance import finish_result
 from hexcal.estimation.least_squares import fit_least_squares, solve_least_squares
-from hexcal.estimation.problem import Problem
+from hexcal.estimation.problem import Problem, session_noises
 from hexcal.estimation.result import IdentificationResult, rms
 from hexcal.estimation.uncertainty import LEG_SIGMA_FLOOR
 
 
 def _noises(problem: Problem, noise: NoiseModel | Sequence[NoiseModel] | None) -> tuple[NoiseModel, ...]:
-    from hexcal.estimation.likelihood import session_noises  # the one rule of per-session noise
-
-    return session_noises(problem, noise)
+    return session_noises(problem, noise)  # the one rule of per-session noise
 
 
 def pose_covariances(problem: Problem, noises: Sequence[NoiseModel]) -> NDArray[np.float64]:

@@ -39,26 +39,12 @@ from hexcal.estimation.covariance import finish_result
 from hexcal.estimation.gauge import Gauge, apply_convention, complement_basis, gauge_freedoms, unidentifiable
 from hexcal.estimation.gls import solve_gls
 from hexcal.estimation.least_squares import fit_least_squares, solve_least_squares
-from hexcal.estimation.problem import Part, Problem
+from hexcal.estimation.problem import Part, Problem, session_noises
 from hexcal.estimation.result import IdentificationResult, rms
 from hexcal.estimation.uncertainty import LEG_SIGMA_FLOOR, POSE_VARIANCE_FLOOR
 
 _INNER_MAX_ITER = 20
 _INNER_TOL = 1e-12
-
-
-def session_noises(
-    problem: Problem, noise: NoiseModel | Sequence[NoiseModel] | None
-) -> tuple[NoiseModel, ...]:
-    """One noise model per session (one given for all, or one each)."""
-    if noise is None:
-        noise = NoiseModel()
-    if isinstance(noise, NoiseModel):
-        return (noise,) * len(problem.parts)
-    noises = tuple(noise)
-    if len(noises) != len(problem.parts):
-        raise IdentificationError(f"{len(noises)} noise models for {len(problem.parts)} sessions")
-    return noises
 
 
 def _solve(hess: NDArray[np.float64], grad: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 
 from hexcal.core.noise import NoiseModel
 from hexcal.estimation.gls import residual_weights
-from hexcal.estimation.problem import Problem
+from hexcal.estimation.problem import Problem, session_noises
 from hexcal.estimation.result import IdentificationResult
 
 #: Family-wise false alarm rate of the outlier test over all groups of a data set.
@@ -255,8 +255,6 @@ def block_diagnostics(
 
 
 def _noises(problem: Problem, noise: Any) -> tuple[NoiseModel, ...]:
-    from hexcal.estimation.likelihood import session_noises
-
     return session_noises(problem, noise)
 
 

@@ -30,6 +30,7 @@ from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import pose_jacobian_from_arrays
 from hexcal.core.linalg import null_space, numerical_rank, scaled_svd
 from hexcal.core.machine import check_variant, leg_parameter_jacobian, leg_residuals, pose_frames
+from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import IdentificationError, UsageError
 from hexcal.estimation.sessions import as_sessions, problem_parameters, session_labels
@@ -407,3 +408,17 @@ class Problem:
     def observation_counts(self) -> NDArray[np.intp]:
         """Equations per observation after the six pose unknowns: ``6 + present values - 6``."""
         return np.concatenate([p.present.sum(axis=1) for p in self.parts])
+
+
+def session_noises(
+    problem: Problem, noise: NoiseModel | Sequence[NoiseModel] | None
+) -> tuple[NoiseModel, ...]:
+    """One noise model per session (one given for all, or one each; None: the seed paper's)."""
+    if noise is None:
+        noise = NoiseModel()
+    if isinstance(noise, NoiseModel):
+        return (noise,) * len(problem.parts)
+    noises = tuple(noise)
+    if len(noises) != len(problem.parts):
+        raise IdentificationError(f"{len(noises)} noise models for {len(problem.parts)} sessions")
+    return noises

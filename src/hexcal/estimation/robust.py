@@ -39,7 +39,11 @@ def screen_poses(
     Minimises the soft-L1 loss (``least_squares`` with ``loss="soft_l1"``, whose influence is
     bounded) of the leg residuals at the measured poses (instruments that determine the pose)
     or of the whitened errors-in-variables residuals (the others; ``noise`` needed),
-    re-estimating the scale ``f_scale = 1.4826 MAD`` each round (starting at 1). Returns each
+    re-estimating the scale ``f_scale`` each round (starting at 1): ``1.4826 MAD`` of the leg
+    residuals, or, for the errors-in-variables residuals, the robust scale of each
+    observation's residual norm against its redundancy (an observation's ``6 + k`` residuals
+    lie in a space of dimension ``k``, its values present, once its pose is fitted: with one
+    value, a ball bar's, most of them are near zero and their MAD is no scale). Returns each
     observation's largest residual over the scale. Several gross errors that would drag a
     least-squares fit (and hide each other from its diagnostics) stand out here.
     """
@@ -49,17 +53,29 @@ def screen_poses(
     if problem.determines_pose:
         fun, jac = problem.least_squares_functions("length")
         width = 6
+
+        def scale(x: NDArray[np.float64], r: NDArray[np.float64]) -> float:
+            return 1.4826 * float(np.median(np.abs(r)))
+
     else:
+        from scipy.stats import chi2
+
         from hexcal.estimation.likelihood import Projection
 
         inner = Projection(problem, noise)
         fun, jac, width = inner.residuals, inner.jacobian, None
+        median_chi2 = chi2.median(problem.observation_counts())
+
+        def scale(x: NDArray[np.float64], r: NDArray[np.float64]) -> float:
+            norms = np.concatenate([np.sum(b**2, axis=1) for b in inner.blocks(x)])
+            return float(np.sqrt(np.median(norms / median_chi2)))
+
     x = np.zeros(problem.n_free)
     f_scale = 1.0
     for _ in range(rounds):
         sol = least_squares(fun, x, jac=jac, method="trf", loss="soft_l1", f_scale=f_scale, x_scale=1.0)
         x = sol.x
-        f_scale = max(1.4826 * float(np.median(np.abs(sol.fun))), 1e-9)
+        f_scale = max(scale(x, sol.fun), 1e-9)
     r = fun(x)
     if width is not None:
         return np.max(np.abs(r.reshape(len(problem), width)), axis=1) / f_scale

@@ -35,7 +35,6 @@ from hexcal.core.kinematics import inverse_kinematics, leg_readings, pose_jacobi
 from hexcal.core.linalg import floored_whitener, gram_pinv, gram_pinv_diagonal, scaled_svd, whitening
 from hexcal.core.machine import check_variant
 from hexcal.core.noise import NoiseModel
-from hexcal.core.parameters import select_parameters
 from hexcal.estimation.gauge import gauge_freedoms, gauge_projector
 from hexcal.estimation.problem import Problem
 from hexcal.instruments.base import MeasurementModel, Session
@@ -235,8 +234,7 @@ def identification_jacobian(
         Row ``6 j + i`` is pose ``j``, leg ``i``; columns in parameter order.
     """
     check_variant(method)
-    mask = select_parameters() if mask is None else mask
-    problem = measurements_problem(geometry, measurements, mask)
+    problem = measurements_problem(geometry, measurements, mask)  # None: the leg model's default
     return problem.leg_jacobian(problem.full0, method, scaled=False)
 
 
@@ -254,7 +252,7 @@ def whitened_jacobian(
     Jacobian does not depend on them except through gain columns).
     """
     poses = np.asarray(poses, dtype=float).reshape(-1, 6)
-    mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
+    mask = None if mask is None else np.asarray(mask, dtype=bool)  # None: the leg model's default
     data = planned_measurements(geometry, poses) if readings is None else Measurements(poses, readings)
     problem = Problem(geometry, data, mask=mask)
     rows = information_rows(problem, noise)[0]
@@ -290,6 +288,7 @@ def bound_mean_abs_error(
     pose_sets: ArrayLike,
     noise: NoiseModel | None = None,
     mask: ArrayLike | None = None,
+    rows: ArrayLike | None = None,
 ) -> NDArray[np.float64]:
     """Cramér–Rao bound of the mean absolute parameter error of each pose set.
 
@@ -304,7 +303,12 @@ def bound_mean_abs_error(
     pose_sets : array_like, shape (T, n, 6)
         ``T`` sets of ``n`` measurement poses each.
     noise : NoiseModel, optional
-    mask : array_like of bool, shape (48,), optional
+    mask : array_like of bool, optional
+        The identified machine parameters (one flag per parameter of the geometry's leg
+        model, 48 for linear legs); default the joints and ``l0``.
+    rows : array_like of bool, optional
+        Which of the identified parameters the mean is over (default all): the bound of the
+        joints while the leg model's terms are identified too.
 
     Returns
     -------
@@ -314,4 +318,6 @@ def bound_mean_abs_error(
     t, n = sets.shape[:2]
     wa = whitened_jacobian(geometry, sets.reshape(-1, 6), noise, mask).reshape(t, 6 * n, -1)
     variances = gram_pinv_diagonal(scaled_svd(wa))
+    if rows is not None:
+        variances = variances[..., np.asarray(rows, dtype=bool)]
     return np.sqrt(2 / np.pi) * np.sqrt(variances).mean(axis=1)

@@ -34,6 +34,7 @@ __getattr__, __dir__, __all__ = attach(
         "instrument_for": "registry",
         "matrix_to_euler": "setup",
         "model_by_name": "registry",
+        "register_instrument": "registry",
         "register_pose_instrument": "registration",
         "register_targets": "registration",
         "rigid_fit": "registration",

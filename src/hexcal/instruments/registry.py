@@ -1,8 +1,10 @@
-"""Instruments by name: a new instrument is one new module plus one line here.
+"""Instruments by name: a new instrument is one new module plus one registration.
 
-:data:`MODELS` maps each name to its class; :func:`instrument_for` gives the instrument a
-setup describes (its quantities say which: targets or a tool), and :func:`full_pose` the
-instrument of a measurement file read without a setup (the platform pose in the base frame).
+:data:`MODELS` maps each name to its class (a built-in instrument is one line here, another
+one registers itself with :func:`register_instrument`); :func:`instrument_for` gives the
+instrument a setup describes (its quantities say which: targets or a tool), and
+:func:`full_pose` the instrument of a measurement file read without a setup (the platform
+pose in the base frame).
 
 >>> sorted(MODELS)
 ['pose', 'targets', 'tool']
@@ -29,6 +31,15 @@ MODELS: dict[str, type[MeasurementModel]] = {
 
 #: The instrument of each kind of setup (:attr:`Setup.kind`).
 SETUP_KINDS: dict[str, str] = {"targets": TargetModel.name, "tool": ToolModel.name}
+
+
+def register_instrument(model: type[MeasurementModel]) -> type[MeasurementModel]:
+    """Add an instrument class to :data:`MODELS` under its ``name`` (replacing one of the same
+    name); usable as a class decorator."""
+    if not model.name:
+        raise UsageError(f"{model.__name__} has no name to register")
+    MODELS[model.name] = model
+    return model
 
 
 def model_by_name(name: str, *args: Any, **options: Any) -> MeasurementModel:

@@ -256,8 +256,15 @@ def export_linuxcnc(
     ``HOME`` (strut length at the home pose), ``MIN_LIMIT``/``MAX_LIMIT`` (leg length
     limits) and ``HEXCAL_LEG_GAIN = g`` (the joint's position scale, counts per mm, is
     to be divided by ``g``); ``[TRAJ] HOME`` is the home pose and ``[AXIS_*]`` limits
-    the workspace box, in LinuxCNC's ``X Y Z A B C``.
+    the workspace box, in LinuxCNC's ``X Y Z A B C``. Only linear legs can be exported
+    (``genhexkins`` struts are ``l0 + g dl``): a leg model with terms of its own is refused
+    rather than written without them.
     """
+    if geometry.leg_model.terms or geometry.leg_model.settings():
+        raise InputError(
+            f"{source}: the legs follow the {geometry.leg_model.name} model, and genhexkins struts are "
+            "linear (l0 + g dl): its terms would be lost, so nothing is exported"
+        )
     hal = _header(geometry, HAL_FILE, source, source_sha256, source_date)
     hal += [
         "# use: in the machine's INI, [HAL] HALFILE = hexcal-kins.hal after the file that loads",

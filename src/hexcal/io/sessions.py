@@ -1,10 +1,12 @@
 """Sessions from files: a data file and the setup that says which instrument recorded it.
 
 A session is read from a data file and, optionally, a setup file (without one the file is
-a measurement file of the full pose in the base frame). The setup's kind names the
-instrument (:func:`hexcal.instruments.instrument_for`), and the instrument's name the reader
-and writer of its data files here (:data:`READERS`, :data:`WRITERS`): a new instrument is its
-module, its registration, and one reader and writer line here.
+a measurement file of the full pose in the base frame) or the instrument itself. The setup's
+kind names the instrument (:func:`hexcal.instruments.instrument_for`), and the instrument's
+name the reader and writer of its data files here (:data:`READERS`, :data:`WRITERS`): a new
+instrument's files are one reader and one writer added to these (by a line here, or
+``READERS[name] = reader`` from its own module); its instrument is then given as such, since
+a setup file describes targets or a tool only.
 """
 
 from __future__ import annotations
@@ -64,9 +66,13 @@ def _write_targets(
 WRITERS: dict[str, Writer] = {"pose": _write_poses, "tool": _write_poses, "targets": _write_targets}
 
 
-def load_instrument(setup: str | os.PathLike[str] | Setup | None, euler: str) -> MeasurementModel:
+def load_instrument(
+    setup: str | os.PathLike[str] | Setup | MeasurementModel | None, euler: str
+) -> MeasurementModel:
     """The instrument of a setup file or setup (None: the full pose in the base frame), its
-    angles in the Euler sequence ``euler``."""
+    angles in the Euler sequence ``euler``; an instrument is returned as it is."""
+    if isinstance(setup, MeasurementModel):
+        return setup
     if setup is not None and not isinstance(setup, Setup):
         setup = load_setup(setup)
     return instrument_for(None if setup is None else setup.in_euler(euler))
@@ -74,14 +80,15 @@ def load_instrument(setup: str | os.PathLike[str] | Setup | None, euler: str) ->
 
 def read_session(
     data: str | os.PathLike[str],
-    setup: Setup | str | os.PathLike[str] | None,
+    setup: Setup | str | os.PathLike[str] | MeasurementModel | None,
     euler: str,
     delimiter: str | None = None,
     decimal: str | None = None,
     label: str | None = None,
 ) -> Session:
-    """The session of a data file and its setup (a :class:`Setup` or a setup file; None for
-    the full pose in the base frame), angles in the Euler sequence ``euler``."""
+    """The session of a data file and its setup (a :class:`Setup`, a setup file or the
+    instrument; None for the full pose in the base frame), angles in the Euler sequence
+    ``euler``."""
     instrument = load_instrument(setup, euler)
     try:
         reader = READERS[instrument.name]
@@ -93,7 +100,7 @@ def read_session(
 
 def read_sessions(
     data: Sequence[str | os.PathLike[str]],
-    setups: Sequence[str | os.PathLike[str] | Setup | None],
+    setups: Sequence[str | os.PathLike[str] | Setup | MeasurementModel | None],
     euler: str,
     delimiter: str | None = None,
     decimal: str | None = None,
@@ -114,7 +121,7 @@ def read_sessions(
     sessions = []
     for k, (path, setup) in enumerate(zip(data, setups, strict=True)):
         key = str(setup)
-        if setup is not None and not isinstance(setup, Setup):
+        if setup is not None and not isinstance(setup, Setup | MeasurementModel):
             if key not in loaded:
                 loaded[key] = load_setup(setup)
             setup = loaded[key]

@@ -135,11 +135,14 @@ def campaign_bounds(
     true_vectors: NDArray[np.float64],
     reached: NDArray[np.float64],
     noise: NoiseModel,
+    mask: NDArray[np.bool_] | None = None,
+    rows: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.float64] | None:
     """Per-trial Cramér–Rao bound ``(T,)`` of the mean absolute error of the pose sets.
 
     ``reached`` ``(T, n, 6)`` are the poses really measured; ``None`` without noise; NaN
-    for trials with an unreachable pose.
+    for trials with an unreachable pose. ``mask`` are the identified machine parameters
+    (default joints and ``l0``) and ``rows`` those of them the mean is over (default all).
     """
     from hexcal.estimation import bound_mean_abs_error
 
@@ -149,10 +152,11 @@ def campaign_bounds(
     out = np.full(len(reached), np.nan)
     if true is not None:
         if ok.all():
-            return bound_mean_abs_error(true, reached, noise)
+            return bound_mean_abs_error(true, reached, noise, mask, rows)
         if ok.any():
-            out[ok] = bound_mean_abs_error(true, reached[ok], noise)
+            out[ok] = bound_mean_abs_error(true, reached[ok], noise, mask, rows)
         return out
     for t in np.flatnonzero(ok):  # a different machine in every trial
-        out[t] = bound_mean_abs_error(nominal.with_vector(true_vectors[t]), reached[t : t + 1], noise)[0]
+        machine = nominal.with_vector(true_vectors[t])
+        out[t] = bound_mean_abs_error(machine, reached[t : t + 1], noise, mask, rows)[0]
     return out

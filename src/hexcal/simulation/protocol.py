@@ -191,13 +191,16 @@ def true_machines(
     """The true 42-vectors ``(T, 42)`` of the trials and their machines.
 
     ``true`` in every trial, or (``true`` None) the nominal vector plus uniform errors in
-    ``[-error, error]`` mm, drawn from each trial's generator.
+    ``[-error, error]`` mm, drawn from each trial's generator; the machines keep the leg
+    model of their geometry and its other parameters (gains, the model's own terms).
     """
     if true is None:
         vectors = random_machines(nominal, len(rngs), error, list(rngs))
-        return vectors, MachineBatch.from_vectors(vectors, nominal.leg_gains)
+        machines = np.stack([nominal.with_vector(v).machine_vector() for v in vectors])
+        return vectors, MachineBatch.from_geometry(nominal, machines)
     vectors = np.broadcast_to(true.to_vector(), (len(rngs), N_BASE_PARAMETERS)).copy()
-    return vectors, MachineBatch.from_vectors(vectors, true.leg_gains)
+    machines = np.broadcast_to(true.machine_vector(), (len(rngs), len(true.machine_names())))
+    return vectors, MachineBatch.from_geometry(true, machines)
 
 
 def random_machines(
@@ -299,7 +302,7 @@ def simulate_measurements(
     rng = np.random.default_rng(rng)
     poses = np.asarray(poses, dtype=float).reshape(-1, 6)
     m = poses.shape[0]
-    machine = MachineBatch.from_vectors(true.to_vector()[None], true.leg_gains)
+    machine = MachineBatch.from_geometry(true)
     sensor = noise.leg_errors(rng, (m,))
     campaign = simulate_campaigns(
         nominal, machine, poses[None], sensor[None], noise.pose_errors(rng, (m,))[None]

@@ -187,9 +187,11 @@ def study_trials(d: StudyDefinition, indices: NDArray[np.intp]) -> dict[str, NDA
                 campaign = simulate_campaigns(
                     nominal, machines, commanded, leg_noise, pose_noise, strict=False
                 )
-                bounds = campaign_bounds(nominal, d.true, true_vectors, campaign.reached, noise)
                 params = nominal.machine_parameters(d.fit)
                 lengths = np.isin(params.names, params.groups["joints"] + params.groups["l0"])
+                bounds = campaign_bounds(
+                    nominal, d.true, true_vectors, campaign.reached, noise, params.vary, lengths[params.vary]
+                )
                 for method in d.methods:
                     values = identify_trials(nominal, campaign, slice(None), method, noise, mask=params.vary)
                     full = np.tile(params.values, (len(indices), 1))
