@@ -1,21 +1,248 @@
-"""Pose, measurement and leg files (FORMATS.md) on top of :mod:`hexcal.io.tables`."""
+"""Reading table files, the one reader of every table; pose, measurement and leg files.
+
+:func:`read_table` and :func:`iter_tables` read every table hexcal reads (FORMATS.md, with
+extensions marked *); :mod:`hexcal.io.tables` holds the rows and converts the numbers. One
+line is one record; blank lines and ``#`` comments (before the header and, *, after it) are
+skipped, and one (*, or two) UTF-8 byte order marks. The delimiter is ``;`` if the header
+holds one, else a tab if it holds one, else ``,`` (or ``delimiter=``); the decimal mark is
+detected or given (``decimal=``). A unit row right under the header (``mm``, ``[mm]``, ``(rad)``,
+``deg``...) needs a cell for every column and is skipped: lengths (``x y z``, ``l1..l6``,
+``dl1..dl6``, ``t1.x``...) in mm, ``a b c`` in rad, ``a_deg b_deg c_deg`` in deg, quaternions
+without unit. A field over :data:`~hexcal.io.tables.MAX_FIELD_CHARS` characters and more than
+``max_rows`` rows (``--max-rows``) are refused at once, while reading. ``columns=`` maps
+hexcal's column names to the file's (``{"x": "position_x"}``). Chunks of plain rows (no
+quotes, comments, blank or indented lines, non-ASCII text) are kept as they are, checked by
+the number parser; others are read line by line. Every file kind takes the same options.
+"""
 
 from __future__ import annotations
 
 import math
 import os
 import warnings
-from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping
 
 import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning
-from hexcal.io.inputs import DEFAULT_MAX_ROWS, MEASUREMENT_MAX_ROWS
-from hexcal.io.outputs import OutputSet
-from hexcal.io.tables import BLOCK_ROWS, Table, iter_tables, read_table, write_table
+from hexcal.io import tables
+from hexcal.io.inputs import DEFAULT_MAX_ROWS, MEASUREMENT_MAX_ROWS, open_input, row_limit, too_many_rows
+from hexcal.io.table_writing import write_legs, write_measurements, write_poses
+from hexcal.io.tables import BLOCK_ROWS, LEG_LENGTH_COLUMNS, LEG_READING_COLUMNS, ORIENTATION_GROUPS, Table
 from hexcal.models.pose import Measurements
+
+__all__ = ["write_legs", "write_measurements", "write_poses"]  # also importable from here, as before
+
+Path = str | os.PathLike[str]
+Columns = Mapping[str, str] | None
+#: Characters a line may have before its line break (bounds the memory of one line).
+MAX_LINE_CHARS = 1 << 24
+_CHUNK_BYTES = 1 << 22
+_BOM = "\ufeff"
+#: Bytes a chunk may hold and still be one block of plain rows (no quotes, comments, CR...).
+_PLAIN = bytes(b for b in range(32, 127) if b not in b'"#') + b"\n\t"
+_BLANKS = np.frombuffer(b"\n\r \t", np.uint8)
+
+
+class _Scanner:
+    """The header, the unit row and the data blocks of one CSV file, a chunk at a time."""
+
+    def __init__(self, path: Path, delimiter: str | None, decimal: str | None, columns: Columns) -> None:
+        self.path = os.fspath(path)
+        self.asked, self.map = (delimiter, decimal), tables.check_column_map(columns) or {}
+        self.header: tuple[str, ...] | None = None  # the file's names
+        self.names: tuple[str, ...] = ()  # hexcal's names
+        self.dialect: tables.Dialect | None = None
+        self.units_next = True
+
+    def table(self, blocks: list[tables.TableBlock]) -> Table:
+        assert self.header is not None and self.dialect is not None
+        return Table.of_blocks(self.path, self.names, self.header, self.dialect, blocks)
+
+    def blocks(self) -> Iterator[tables.TableBlock]:
+        """Data blocks in reading order (a chunk of plain rows, or the data lines of an irregular one)."""
+        name, lineno, rest = self.path, 1, b""
+        with open_input(name) as fh:
+            raw = fh.buffer
+            try:
+                while True:
+                    data = raw.read(_CHUNK_BYTES)
+                    if lineno == 1 and not rest and data.startswith(b"\xef\xbb\xbf"):
+                        data = data[3:]
+                        if data.startswith(b"\xef\xbb\xbf"):
+                            data = data[3:]
+                            warnings.warn(f"{name}: line 1 starts with a second byte order mark (U+FEFF); "
+                                          "ignored", InputWarning, stacklevel=4)
+                    buf = rest + data
+                    if not data:
+                        break
+                    cut = max(buf.rfind(b"\n"), buf.rfind(b"\r", 0, len(buf) - 1)) + 1
+                    if cut == 0:  # no whole line yet
+                        rest = buf
+                        if len(rest) > MAX_LINE_CHARS:
+                            raise InputError(f"{name}: line {lineno}: over {MAX_LINE_CHARS:,} characters")
+                        continue
+                    piece, rest = buf[:cut], buf[cut:]
+                    block, count = self._piece(lineno, piece)
+                    lineno += count
+                    if len(block):
+                        yield block
+            except OSError as exc:
+                raise InputError(f"{name}: cannot read: {exc}") from None
+        if rest:
+            block, _ = self._piece(lineno, rest)
+            if len(block):
+                yield block
+        if self.header is None:
+            raise InputError(f"{name}: empty file (no header row)")
+
+    def _piece(self, lineno: int, piece: bytes) -> tuple[tables.TableBlock, int]:
+        """The data rows of whole lines ``piece`` (from line ``lineno``) and its number of lines."""
+        if self.header is not None and not self.units_next and len(self.header) > 1:
+            odd = piece.translate(None, _PLAIN)
+            crlf = bool(odd) and not odd.strip(b"\r") and piece.count(b"\r") == piece.count(b"\r\n")
+            if (not odd or crlf) and piece[-1:] == b"\n":
+                data = np.frombuffer(piece, np.uint8)
+                ends = np.flatnonzero(data == 10)
+                firsts = data[np.concatenate([[0], ends[:-1] + 1])]  # no blank line, none led by a blank
+                longest = np.diff(ends, prepend=-1).max()
+                if not np.isin(firsts, _BLANKS).any() and longest <= tables.MAX_FIELD_CHARS:
+                    lines = np.arange(lineno, lineno + len(ends), dtype=np.int64)
+                    return tables.TableBlock(piece.decode("ascii"), lines, ends, False), len(ends)
+        try:
+            parts = piece.decode("utf-8").splitlines()
+        except UnicodeDecodeError as exc:
+            raise InputError(f"{self.path}: line {lineno} or after: cannot read: {exc}") from None
+        records, numbers = [], []
+        for k, line in enumerate(parts, start=lineno):
+            if not line.strip() or line.lstrip().startswith("#"):
+                continue
+            if self.header is None:
+                self._set_header(k, line)
+                continue
+            fields = self._checked(k, line)
+            if self.units_next:
+                self.units_next = False
+                if self._unit_row(k, fields):
+                    continue
+            records.append(line)
+            numbers.append(k)
+        return tables.TableBlock.of(records, numbers), len(parts)
+
+    def _checked(self, lineno: int, line: str) -> list[str]:
+        """The fields of a data line: their number and lengths checked."""
+        assert self.header is not None and self.dialect is not None
+        fields = tables.split_fields(self.path, lineno, line, self.dialect.delimiter)
+        if len(fields) != len(self.header):
+            width, delimiter = len(self.header), self.dialect.delimiter
+            raise tables.field_count_error(self.path, lineno, fields, width, delimiter)
+        if len(line) > tables.MAX_FIELD_CHARS:
+            for col, field in zip(self.header, fields, strict=True):
+                if len(field) > tables.MAX_FIELD_CHARS:
+                    raise InputError(
+                        f"{self.path}: line {lineno}, column '{col}': a field of {len(field):,} characters, "
+                        f"over the limit of {tables.MAX_FIELD_CHARS:,}"
+                    )
+        return fields
+
+    def _set_header(self, lineno: int, line: str) -> None:
+        name = self.path
+        if len(line) > tables.MAX_FIELD_CHARS:
+            raise InputError(f"{name}: line {lineno}: a header of {len(line):,} characters, over the limit")
+        self.dialect = tables.Dialect(name, line, *self.asked)
+        header = tuple(f.strip() for f in tables.split_fields(name, lineno, line, self.dialect.delimiter))
+        for k, col in enumerate(header):
+            if col == "":
+                raise InputError(f"{name}: line {lineno}: column {k + 1} of the header has no name")
+            if _BOM in col:
+                raise InputError(f"{name}: line {lineno}: column {k + 1} of the header holds a U+FEFF mark")
+            if col in header[:k]:
+                raise InputError(f"{name}: line {lineno}: column '{col}' appears twice in the header")
+        given = {file: ours for ours, file in self.map.items()}
+        for ours, file in self.map.items():
+            if file not in header:
+                raise InputError(f"{name}: line {lineno}: no column '{file}' (the column map's {ours})")
+            if ours in header and ours != file:
+                raise InputError(
+                    f"{name}: line {lineno}: columns '{ours}' and '{file}' would both be {ours} "
+                    f"(the column map gives {ours}={file}); map only one"
+                )
+        self.header, self.names = header, tuple(given.get(c, c) for c in header)
+
+    def _unit_row(self, lineno: int, cells: list[str]) -> bool:
+        """Whether the first data line is a unit row (checked here), or data."""
+        units = [c.strip().strip("[]()").strip().lower() for c in cells]
+        if not any(u in tables.KNOWN_UNITS - {"", "-", "1"} for u in units):
+            return False
+        if not all(u in tables.KNOWN_UNITS or not tables.NUMBER_TEXT.match(u) for u in units):
+            return False
+        for ours, col, unit, cell in zip(self.names, self.header or (), units, cells, strict=True):
+            accepted = tables.unit_refused(ours, unit)
+            if accepted is not None:
+                where = f"{self.path}: line {lineno}, column '{col}'"
+                raise InputError(f"{where}: unit {cell.strip()!r}; only {accepted}")
+        return True
+
+
+def read_table(
+    path: Path, max_rows: int | None = DEFAULT_MAX_ROWS, delimiter: str | None = None,
+    decimal: str | None = None, columns: Columns = None,
+) -> Table:
+    """Read a whole CSV table with a header row (rules in the module docstring).
+
+    ``max_rows``: more rows are refused while reading (``None``: no limit; ``--max-rows``
+    replaces it, :func:`~hexcal.io.inputs.row_limit`). ``delimiter`` (``","``, ``";"``,
+    ``"\\t"``) and ``decimal`` (``"."``, ``","``) are detected when not given. ``columns``:
+    hexcal's column name -> the file's (:func:`~hexcal.io.target_files.parse_column_map`).
+    """
+    max_rows = row_limit(max_rows)
+    scanner = _Scanner(path, delimiter, decimal, columns)
+    blocks, count = [], 0
+    for block in scanner.blocks():
+        blocks.append(block)
+        count += len(block)
+        if max_rows is not None and count > max_rows:
+            raise too_many_rows(scanner.path, max_rows)
+    if not count:
+        raise InputError(f"{scanner.path}: the header has no data rows")
+    return scanner.table(blocks)
+
+
+def iter_tables(
+    path: Path, block_rows: int = BLOCK_ROWS, delimiter: str | None = None, decimal: str | None = None,
+    columns: Columns = None,
+) -> Iterator[Table]:
+    """The rows of a CSV table in blocks of ``block_rows`` (memory bounded by one block).
+
+    Every block is a :class:`Table` with the same columns; a file without data rows is
+    refused (after reading it). Errors and options are those of :func:`read_table`.
+    """
+    if block_rows < 1:
+        raise ValueError(f"block_rows must be >= 1, got {block_rows}")
+    scanner = _Scanner(path, delimiter, decimal, columns)
+    pending: list[tables.TableBlock] = []
+    have = count = 0
+    for block in scanner.blocks():
+        pending.append(block)
+        have += len(block)
+        while have >= block_rows:
+            taken, need = [], block_rows
+            while need:
+                head = pending.pop(0)
+                if len(head) > need:
+                    head, tail = head.cut(need)
+                    pending.insert(0, tail)
+                taken.append(head)
+                need -= len(head)
+            have, count = have - block_rows, count + block_rows
+            yield scanner.table(taken)
+    if have:
+        count += have
+        yield scanner.table(pending)
+    if count == 0:
+        raise InputError(f"{scanner.path}: the header has no data rows")
+
 
 #: A quaternion whose norm differs from 1 by more than this is refused (others are
 #: normalised). 1e-3 admits instruments that print 4 decimals and catches a wrong column.
@@ -24,22 +251,12 @@ QUATERNION_NORM_TOLERANCE = 1e-3
 #: Radian angle columns beyond this magnitude draw a warning that they may be degrees.
 DEGREE_SUSPICION = math.pi / 2
 
-ORIENTATION_GROUPS = {
-    "rad": ("a", "b", "c"),
-    "deg": ("a_deg", "b_deg", "c_deg"),
-    "quat": ("qx", "qy", "qz", "qw"),
-}
-LEG_LENGTH_COLUMNS = tuple(f"l{i}" for i in range(1, 7))
-LEG_READING_COLUMNS = tuple(f"dl{i}" for i in range(1, 7))
-
 
 def _orientation_group(table: Table) -> str:
     present = [g for g, cols in ORIENTATION_GROUPS.items() if any(table.has(c) for c in cols)]
     if not present:
-        raise InputError(
-            f"{table.path}: missing orientation columns: give a, b, c (rad), "
-            "a_deg, b_deg, c_deg, or qx, qy, qz, qw"
-        )
+        raise InputError(f"{table.path}: missing orientation columns: give a, b, c (rad), "
+                         "a_deg, b_deg, c_deg, or qx, qy, qz, qw")
     if len(present) > 1:
         names = " and ".join(", ".join(ORIENTATION_GROUPS[g]) for g in present)
         raise InputError(f"{table.path}: two orientation groups at once ({names}); keep one")
@@ -54,13 +271,9 @@ def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
     if group == "rad":
         big = np.flatnonzero(np.any(np.abs(values) > DEGREE_SUSPICION, axis=1))
         if big.size:
-            warnings.warn(
-                f"{table.path}: line {table.line(int(big[0]))}: angles a, b, c are in radians, but "
-                f"{big.size} row(s) exceed ±π/2; if they are degrees, name the columns "
-                "a_deg, b_deg, c_deg",
-                InputWarning,
-                stacklevel=2,
-            )
+            warnings.warn(f"{table.path}: line {table.line(int(big[0]))}: angles a, b, c are in radians, but "
+                          f"{big.size} row(s) exceed ±π/2; if they are degrees, name the columns "
+                          "a_deg, b_deg, c_deg", InputWarning, stacklevel=2)
         angles = values
     elif group == "deg":
         angles = np.deg2rad(values)
@@ -69,8 +282,9 @@ def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
         bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_NORM_TOLERANCE)
         if bad.size:
             k = bad[0]
+            names = ", ".join(table.label(c) for c in ORIENTATION_GROUPS["quat"])
             raise InputError(
-                f"{table.path}: line {table.line(int(k))}, columns 'qx, qy, qz, qw': quaternion norm "
+                f"{table.path}: line {table.line(int(k))}, columns '{names}': quaternion norm "
                 f"{norms[k]:.6g} is not 1 (tolerance {QUATERNION_NORM_TOLERANCE:g})"
             )
         from scipy.spatial.transform import Rotation  # deferred: slow to import
@@ -82,24 +296,26 @@ def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
 
 
 def read_poses(
-    path: str | os.PathLike[str], euler: str, max_rows: int | None = DEFAULT_MAX_ROWS
+    path: Path, euler: str, max_rows: int | None = DEFAULT_MAX_ROWS, delimiter: str | None = None,
+    decimal: str | None = None, columns: Columns = None,
 ) -> tuple[NDArray[np.float64], tuple[str, ...]]:
-    """A pose file: poses ``(m, 6)`` (mm, rad, in ``euler``) and their ids (``max_rows``: see
-    :func:`~hexcal.io.tables.read_table`)."""
-    table = read_table(path, max_rows)
+    """A pose file: poses ``(m, 6)`` (mm, rad, in ``euler``) and their ids (``max_rows``,
+    ``delimiter``, ``decimal``, ``columns``: see :func:`read_table`)."""
+    table = read_table(path, max_rows, delimiter, decimal, columns)
     return table_poses(table, euler), table.ids()
 
 
 def read_measurements(
-    path: str | os.PathLike[str], euler: str, max_rows: int | None = MEASUREMENT_MAX_ROWS
+    path: Path, euler: str, max_rows: int | None = MEASUREMENT_MAX_ROWS, delimiter: str | None = None,
+    decimal: str | None = None, columns: Columns = None,
 ) -> Measurements:
     """A measurement file: measured poses, leg readings ``dl1..dl6`` and ids.
 
     More than ``max_rows`` rows (default :data:`~hexcal.io.inputs.MEASUREMENT_MAX_ROWS`,
-    100,000) are refused while reading, before conversion, with a message naming the limit
-    and ``--max-rows``.
+    100,000) are refused while reading, naming the limit and ``--max-rows``; ``delimiter``,
+    ``decimal``, ``columns``: see :func:`read_table`.
     """
-    table = read_table(path, max_rows)
+    table = read_table(path, max_rows, delimiter, decimal, columns)
     group = ORIENTATION_GROUPS[_orientation_group(table)]
     table.numbers(("x", "y", "z", *group, *LEG_READING_COLUMNS))  # converted in one pass, kept
     poses = table_poses(table, euler)
@@ -107,56 +323,100 @@ def read_measurements(
     return Measurements(poses, readings, table.ids())
 
 
-@dataclass(frozen=True)
 class LegData:
-    """A leg file: absolute lengths and/or readings, and ids."""
+    """A leg file: absolute lengths and/or readings, and ids.
 
-    lengths: NDArray[np.float64] | None
-    readings: NDArray[np.float64] | None
-    ids: tuple[str, ...]
+    When the file has both, ``lengths`` is converted when first used (``fk`` uses only the
+    readings); ``has_lengths`` says whether the file has them without converting.
+    """
+
+    def __init__(
+        self, lengths: NDArray[np.float64] | None, readings: NDArray[np.float64] | None,
+        ids: tuple[str, ...], table: Table | None = None,
+    ) -> None:
+        self._lengths, self.readings, self.ids, self._table = lengths, readings, ids, table
+        self.has_lengths = lengths is not None or table is not None
+
+    @property
+    def lengths(self) -> NDArray[np.float64] | None:
+        if self._lengths is None and self._table is not None:
+            self._lengths, self._table = self._table.numbers(LEG_LENGTH_COLUMNS), None
+        return self._lengths
 
 
-def read_legs(path: str | os.PathLike[str], max_rows: int | None = DEFAULT_MAX_ROWS) -> LegData:
+def read_legs(
+    path: Path, max_rows: int | None = DEFAULT_MAX_ROWS, delimiter: str | None = None,
+    decimal: str | None = None, columns: Columns = None,
+) -> LegData:
     """A leg file with ``l1..l6`` and/or ``dl1..dl6`` (at least one group complete)."""
-    return table_legs(read_table(path, max_rows))
+    return table_legs(read_table(path, max_rows, delimiter, decimal, columns))
 
 
 def table_legs(table: Table, ids: tuple[str, ...] | None = None) -> LegData:
     """Leg lengths and/or readings of a table (``ids``: already read, for blocks)."""
+    return _legs(table, lambda: table.ids() if ids is None else ids)
+
+
+def _legs(table: Table, ids: Callable[[], tuple[str, ...]]) -> LegData:
+    """Leg data of a table, its ids read after the numbers (read with them, in one pass)."""
     has_l = any(table.has(c) for c in LEG_LENGTH_COLUMNS)
     has_dl = any(table.has(c) for c in LEG_READING_COLUMNS)
     if not (has_l or has_dl):
         raise InputError(f"{table.path}: missing leg columns: give l1..l6 or dl1..dl6")
-    table.numbers((LEG_LENGTH_COLUMNS if has_l else ()) + (LEG_READING_COLUMNS if has_dl else ()))
-    lengths = table.numbers(LEG_LENGTH_COLUMNS) if has_l else None
+    if has_l:
+        table.numbers([c for c in LEG_LENGTH_COLUMNS if not table.has(c)][:1])  # a missing one: named now
     readings = table.numbers(LEG_READING_COLUMNS) if has_dl else None
-    return LegData(lengths, readings, table.ids() if ids is None else ids)
+    lengths = table.numbers(LEG_LENGTH_COLUMNS) if has_l and not has_dl else None
+    return LegData(lengths, readings, ids(), table if has_l and has_dl else None)
 
 
 class _BlockIds:
-    """Ids across the blocks of one file (repeats found across blocks)."""
+    """Ids across the blocks of one file: repeats refused, naming the line of the first one.
 
-    def __init__(self) -> None:
-        self.seen: dict[str, int] = {}
-        self.count = 0
+    A set keeps the ids seen (a dict of their lines would cost several times more); the line
+    of an earlier id is looked up by reading the file again, only when one repeats.
+    """
+
+    def __init__(self, blocks: Callable[[], Iterator[Table]]) -> None:
+        self.seen: set[str] = set()
+        self.count, self.again = 0, blocks
 
     def __call__(self, table: Table) -> tuple[str, ...]:
-        ids = table.ids(self.seen if table.has("id") else None, first=self.count + 1)
+        if table.has("id"):
+            ids = table.ids()  # the repeats inside the block are refused here
+            before = len(self.seen)
+            self.seen.update(ids)
+            if len(self.seen) != before + len(ids):  # a repeat of an earlier block
+                table.ids(self._earlier(set(ids), table.line(0)))
+        else:
+            ids = table.ids(first=self.count + 1)
         self.count += len(ids)
         return ids
 
+    def _earlier(self, ids: set[str], stop: int) -> dict[str, int]:
+        """The first line of each of ``ids`` before line ``stop`` (read from the file again)."""
+        found: dict[str, int] = {}
+        for block in self.again():
+            for value, line in zip(block.cells("id"), block.lines, strict=True):
+                if line >= stop:
+                    return found
+                if value in ids:
+                    found.setdefault(value, line)
+        return found
+
 
 def iter_poses(
-    path: str | os.PathLike[str], euler: str, block_rows: int = BLOCK_ROWS
+    path: Path, euler: str, block_rows: int = BLOCK_ROWS, delimiter: str | None = None,
+    decimal: str | None = None, columns: Columns = None,
 ) -> Iterator[tuple[NDArray[np.float64], tuple[str, ...]]]:
     """A pose file in blocks: ``(poses (k, 6), ids)`` per block of ``block_rows`` rows.
 
     Memory is bounded by one block (and the ids seen, to refuse repeats), whatever the
     length of the file; the radians-look-like-degrees warning is given once.
     """
-    ids = _BlockIds()
+    ids = _BlockIds(lambda: iter_tables(path, block_rows, delimiter, decimal, columns))
     warned = False
-    for table in iter_tables(path, block_rows):
+    for table in iter_tables(path, block_rows, delimiter, decimal, columns):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", InputWarning)
             poses = table_poses(table, euler)
@@ -167,63 +427,11 @@ def iter_poses(
         yield poses, ids(table)
 
 
-def iter_legs(path: str | os.PathLike[str], block_rows: int = BLOCK_ROWS) -> Iterator[LegData]:
+def iter_legs(
+    path: Path, block_rows: int = BLOCK_ROWS, delimiter: str | None = None, decimal: str | None = None,
+    columns: Columns = None,
+) -> Iterator[LegData]:
     """A leg file in blocks of ``block_rows`` rows (memory bounded by one block)."""
-    ids = _BlockIds()
-    for table in iter_tables(path, block_rows):
-        yield table_legs(table, ids(table))
-
-
-def write_poses(
-    path: str | os.PathLike[str],
-    poses: NDArray[np.float64],
-    ids: Sequence[str] | None = None,
-    comment: str | None = None,
-    outputs: OutputSet | None = None,
-) -> None:
-    """Write a pose file with angles in radians (columns ``x, y, z, a, b, c``)."""
-    write_table(path, ("x", "y", "z", "a", "b", "c"), poses, ids, comment, outputs)
-
-
-def write_legs(
-    path: str | os.PathLike[str],
-    lengths: NDArray[np.float64],
-    readings: NDArray[np.float64],
-    ids: Sequence[str] | None = None,
-    comment: str | None = None,
-    outputs: OutputSet | None = None,
-) -> None:
-    """Write a leg file with ``l1..l6`` and ``dl1..dl6``."""
-    write_table(
-        path,
-        LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS,
-        np.concatenate([lengths, readings], axis=1),
-        ids,
-        comment,
-        outputs,
-    )
-
-
-def write_measurements(
-    path: str | os.PathLike[str],
-    measurements: Measurements,
-    euler: str,
-    orientation: str = "rad",
-    comment: str | None = None,
-    outputs: OutputSet | None = None,
-) -> None:
-    """Write a measurement file with orientations as ``rad``, ``deg`` or ``quat``."""
-    poses = measurements.poses
-    if orientation == "rad":
-        angles = poses[:, 3:]
-    elif orientation == "deg":
-        angles = np.rad2deg(poses[:, 3:])
-    elif orientation == "quat":
-        from scipy.spatial.transform import Rotation
-
-        angles = Rotation.from_euler(euler, poses[:, 3:]).as_quat()
-    else:
-        raise ValueError(f"orientation must be rad, deg or quat, got {orientation!r}")
-    columns = LEG_READING_COLUMNS + ("x", "y", "z") + ORIENTATION_GROUPS[orientation]
-    data = np.concatenate([measurements.readings, poses[:, :3], angles], axis=1)
-    write_table(path, columns, data, measurements.ids, comment, outputs)
+    ids = _BlockIds(lambda: iter_tables(path, block_rows, delimiter, decimal, columns))
+    for table in iter_tables(path, block_rows, delimiter, decimal, columns):
+        yield _legs(table, lambda table=table: ids(table))

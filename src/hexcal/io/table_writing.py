@@ -1,4 +1,5 @@
-"""Writing CSV tables, whole or block by block, through the command's output set.
+"""Writing CSV tables, whole or block by block, through the command's output set; pose, leg
+and measurement files.
 
 A table with no rows, or with a NaN or infinity, is refused before anything is written,
 because hexcal could not read it back; so is an id that is empty, starts with ``#`` or holds
@@ -16,6 +17,7 @@ end. Values whose exponent is outside ``[-8, 14]``, and exact ties, are formatte
 
 from __future__ import annotations
 
+import io
 import os
 from collections.abc import Iterable, Sequence
 from typing import IO
@@ -25,55 +27,66 @@ from numpy.typing import NDArray
 
 from hexcal.io.files import atomic_write
 from hexcal.io.outputs import OutputError, OutputSet
+from hexcal.io.tables import LEG_LENGTH_COLUMNS, LEG_READING_COLUMNS, ORIENTATION_GROUPS
+from hexcal.models.pose import Measurements
 
-#: Bytes of one value's slot: sign, 15 integer digits, point, 3 zeros (``0.000d``), 15
-#: fraction digits, exponent (``e-05``), separator. NUL bytes are dropped when written.
-SLOT = 41
+#: Bytes of one value's slot, in 8-byte words: separator and sign; "0" and the 15 digits; the
+#: point and the zeros of ``0.000d``; the 15 digits again; the exponent (``e-05``). NUL bytes
+#: are dropped when written; a block keeps only the words its values use.
+SLOT = 56
 
 #: Rows formatted at a time (temporaries of ``SLOT`` bytes per value stay in the cache).
-FORMAT_ROWS = 4096
+FORMAT_ROWS = 1024
 
 _E_MIN, _E_MAX = -8, 14  # decimal exponents formatted by numpy (10**(14 - e) is exact)
 _POW = 10.0 ** np.arange(_E_MAX - _E_MIN + 1)
 _CODES = 2 * (_E_MAX - _E_MIN + 1) * 15  # sign x exponent x last significant digit
 _ZERO, _EMPTY, _PYTHON = _CODES, _CODES + 2, _CODES + 3  # zero, -0; an empty cell; by Python
 _DIGITS4 = np.frombuffer("".join(f"{k:04d}" for k in range(10_000)).encode(), dtype=np.uint32)
+_LOW4, _HIGH4 = _DIGITS4.astype(np.uint64), _DIGITS4.astype(np.uint64) << np.uint64(32)
 _ZEROS4 = np.array([4] + [len(s) - len(s.rstrip("0")) for s in (f"{k:04d}" for k in range(1, 10_000))])
+_SIGN, _FIRST, _POINT, _SECOND, _EXPONENT = 7, 8, 24, 32, 48  # byte offsets in the slot
 
 
-def _layouts() -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
-    """Per code, the mask of the digit bytes kept and the constant bytes of the slot.
+def _layouts() -> tuple[NDArray[np.uint64], NDArray[np.uint64]]:
+    """Per code, the mask of the digit bytes kept and the constant bytes, as 8-byte words.
 
-    The slot holds the 15 digits twice (bytes 1-15 and 20-34); a value keeps its integer
-    digits from the first copy and its fraction digits from the second, so that the point
-    (byte 16) and the zeros of ``0.00d`` (17-19) never move.
+    A value keeps its integer digits from the first copy of the digits and its fraction
+    digits from the second, so that the point and the zeros of ``0.00d`` never move.
     """
     keep = np.zeros((_CODES + 4, SLOT), np.uint8)
     const = np.zeros((_CODES + 4, SLOT), np.uint8)
     for neg in (0, 1):
-        sign = [ord("-")] if neg else []
-        const[_ZERO + neg, : 1 + neg] = [*sign, ord("0")]
+        const[_ZERO + neg, _SIGN] = ord("-") if neg else 0
+        const[_ZERO + neg, _FIRST] = ord("0")
         for e in range(_E_MIN, _E_MAX + 1):
             for last in range(15):
                 code = (neg * (_E_MAX - _E_MIN + 1) + e - _E_MIN) * 15 + last
-                const[code, 0] = ord("-") if neg else 0
-                whole = max(e, 0) if e >= -4 else 0  # index of the last integer digit
-                if e >= -4 and e < 0:  # 0.000ddd
-                    const[code, 1] = ord("0")
-                    const[code, 16] = ord(".")
-                    const[code, 17 : 17 + (-e - 1)] = ord("0")
-                    keep[code, 20 : 21 + last] = 255
+                const[code, _SIGN] = ord("-") if neg else 0
+                if -4 <= e < 0:  # 0.000ddd: the "0" of the first copy, then the digits of the second
+                    keep[code, _FIRST] = 255
+                    const[code, _POINT : _POINT + 1 - e - 1] = np.frombuffer(b".000"[: -e], np.uint8)
+                    keep[code, _SECOND + 1 : _SECOND + 2 + last] = 255
                     continue
-                keep[code, 1 : 2 + whole] = 255
+                whole = max(e, 0) if e >= -4 else 0  # index of the last integer digit
+                keep[code, _FIRST + 1 : _FIRST + 2 + whole] = 255
                 if last > whole:
-                    const[code, 16] = ord(".")
-                    keep[code, 21 + whole : 21 + last] = 255
+                    const[code, _POINT] = ord(".")
+                    keep[code, _SECOND + 2 + whole : _SECOND + 2 + last] = 255
                 if e < -4:  # scientific notation: d.ddde-0X
-                    const[code, 35:39] = np.frombuffer(f"e-{-e:02d}".encode(), np.uint8)
-    return keep, const
+                    const[code, _EXPONENT : _EXPONENT + 4] = np.frombuffer(f"e-{-e:02d}".encode(), np.uint8)
+    return keep.view(np.uint64), const.view(np.uint64)
 
 
 _KEEP, _CONST = _layouts()
+_TABLES: dict[tuple[int, ...], tuple[NDArray[np.uint64], NDArray[np.uint64]]] = {}
+
+
+def _tables(words: tuple[int, ...]) -> tuple[NDArray[np.uint64], NDArray[np.uint64]]:
+    """The masks and constants of the words a block uses (contiguous, kept for the next block)."""
+    if words not in _TABLES:
+        _TABLES[words] = (np.ascontiguousarray(_KEEP[:, words]), np.ascontiguousarray(_CONST[:, words]))
+    return _TABLES[words]
 
 
 def _split(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -131,27 +144,20 @@ def _significand(
     return m, e, bad | tie
 
 
-def _columns(e: NDArray[np.int64], last: NDArray[np.int64], python: bool) -> NDArray[np.intp]:
-    """The bytes of the slot that some value of the block uses (all when Python formats some)."""
+def _words(e: NDArray[np.int64], last: NDArray[np.int64], python: bool) -> tuple[int, ...]:
+    """The words of the slot that some value of the block may use (all when Python formats some)."""
     if python:
-        return np.arange(SLOT - 1)
-    fixed = e >= -4
-    whole = np.where(fixed, np.maximum(e, 0), 0)
-    small = fixed & (e < 0)
-    first = np.where(small, 0, whole + 1)  # first fraction digit
-    zeros = int((-e[small] - 1).max()) if small.any() else 0
-    parts = [[0], range(1, 2 + int(whole.max())), [16], range(17, 17 + zeros)]
-    parts.append(range(20 + int(first.min()), 21 + int(last.max())))
-    if not fixed.all():
-        parts.append(range(35, 39))
-    return np.concatenate([np.asarray(p, dtype=np.intp) for p in parts])
+        return tuple(range(SLOT // 8))
+    low, high = int(e.min()), int(e.max())
+    words = (0, 1) + ((2,) if high >= 7 else ()) + (3,) + ((4,) if low <= 5 else ())
+    return words + ((5,) if int(last.max()) >= 7 else ()) + ((6,) if low < -4 else ())
 
 
 def format_values(values: NDArray[np.float64], missing: bool = False) -> NDArray[np.uint8]:
-    """The text of finite ``values`` (NaN: an empty cell when ``missing``) as ``(n, width + 1)`` bytes.
+    """The text of finite ``values`` (NaN: an empty cell when ``missing``) as ``(n, width)`` bytes.
 
-    Each row, once its NUL bytes are dropped, is ``format(v, ".15g")``; the last byte is left
-    for the separator. ``width`` (at most ``SLOT - 1``) is what the values need.
+    Each row, once its NUL bytes are dropped, is ``format(v, ".15g")``; its byte 0 is left
+    (NUL) for a separator. ``width`` (at most :data:`SLOT`) is what the values need.
     """
     v = np.ascontiguousarray(values, dtype=float).ravel()
     a = np.abs(v)
@@ -159,41 +165,38 @@ def format_values(values: NDArray[np.float64], missing: bool = False) -> NDArray
     m, e, python = _significand(np.where(zero, 1.0, a))
     hi = np.floor(m / 1e8)
     lo = m - hi * 1e8
-    g0 = np.floor(hi / 1e4)
-    g2 = np.floor(lo / 1e4)
-    groups = np.empty((v.size, 4), np.intp)  # the digits in groups of four
-    groups[:, 0] = g0
-    groups[:, 1] = hi - g0 * 1e4
-    groups[:, 2] = g2
-    groups[:, 3] = lo - g2 * 1e4
-    chars = np.take(_DIGITS4, groups).view(np.uint8)  # (n, 16): "0" and the 15 digits
-    zeros = np.take(_ZEROS4, groups[:, 3])
+    g0, g2 = np.floor(hi / 1e4), np.floor(lo / 1e4)
+    groups = np.empty((4, v.size), np.intp)  # the digits in groups of four
+    groups[0], groups[1], groups[2], groups[3] = g0, hi - g0 * 1e4, g2, lo - g2 * 1e4
+    chars = np.empty((v.size, 2), np.uint64)  # "0" and the 15 digits, 16 bytes
+    chars[:, 0] = np.take(_LOW4, groups[0]) | np.take(_HIGH4, groups[1])
+    chars[:, 1] = np.take(_LOW4, groups[2]) | np.take(_HIGH4, groups[3])
+    zeros = np.take(_ZEROS4, groups[3])
     for k in (2, 1, 0):  # trailing zeros beyond the last group of four
         more = np.flatnonzero(zeros == 4 * (3 - k))
         if not more.size:
             break
-        zeros[more] += np.take(_ZEROS4, groups[more, k])
+        zeros[more] += np.take(_ZEROS4, groups[k, more])
     last = 14 - np.minimum(zeros, 14)
     code = (np.signbit(v) * (_E_MAX - _E_MIN + 1) + (e - _E_MIN)) * 15 + last
     if zero.any():
         code[zero] = _ZERO + np.signbit(v[zero])
         code[np.isnan(v) if missing else ~np.isfinite(v)] = _EMPTY
+    some_python = bool(python.any())
     code[python] = _PYTHON
-    use = _columns(e[~(zero | python)], last[~(zero | python)], bool(python.any())) if not zero.all() else [0]
-    cols = np.append(use, SLOT - 1)
-    out = np.empty((v.size, len(cols)), np.uint8)
-    a_cols = np.flatnonzero((cols >= 1) & (cols <= 15))
-    b_cols = np.flatnonzero((cols >= 20) & (cols <= 34))
-    if a_cols.size:
-        out[:, a_cols[0] : a_cols[-1] + 1] = chars[:, cols[a_cols[0]] : cols[a_cols[-1]] + 1]
-    if b_cols.size:
-        out[:, b_cols[0] : b_cols[-1] + 1] = chars[:, cols[b_cols[0]] - 19 : cols[b_cols[-1]] - 18]
-    out &= np.take(_KEEP[:, cols], code, axis=0)
-    out |= np.take(_CONST[:, cols], code, axis=0)
+    words = _words(e, last, some_python)
+    out = np.empty((v.size, len(words)), np.uint64)
+    for k, word in enumerate(words):
+        if word in (1, 2, 4, 5):
+            out[:, k] = chars[:, (word - 1) % 3]
+    keep, const = _tables(words)
+    out &= np.take(keep, code, axis=0)
+    out |= np.take(const, code, axis=0)
+    text = out.view(np.uint8)
     for k in np.flatnonzero(python):
-        text = format(float(v[k]), ".15g").encode("ascii")
-        out[k, : len(text)] = np.frombuffer(text, np.uint8)
-    return out
+        cell = format(float(v[k]), ".15g").encode("ascii")
+        text[k, _FIRST : _FIRST + len(cell)] = np.frombuffer(cell, np.uint8)
+    return text
 
 
 def _quote(cell: str) -> str:
@@ -225,27 +228,27 @@ def _checked_ids(name: str, ids: list[str]) -> list[str]:
 
 def format_rows(
     name: str, data: NDArray[np.float64], ids: Sequence[str] | None = None, missing: bool = False
-) -> str:
-    """The CSV lines of the rows ``data`` (finite; NaN an empty cell when ``missing``) and their ids."""
+) -> bytes:
+    """The CSV lines (UTF-8) of the rows ``data`` (finite; NaN an empty cell when ``missing``) and ids."""
     rows, width = data.shape
     flat = format_values(data, missing)
-    slot = flat.shape[1]
-    slots = flat.reshape(rows, width, slot)
-    slots[:, :, -1] = ord(",")
-    slots[:, -1, -1] = ord("\n")
-    cells = [str(value) for value in ids] if ids is not None else None
+    slots = flat.reshape(rows, width, flat.shape[1])
+    slots[:, 1:, 0] = ord(",")  # each value's separator, before it; a row's line break before it
+    cells = list(map(str, ids)) if ids is not None else None
     plain = _plain_ids(cells) if cells is not None else None
     if cells is not None and plain is not None:
-        buffer = np.empty((rows, plain.shape[1] + 1 + width * slot), np.uint8)
-        buffer[:, : plain.shape[1]] = plain
-        buffer[:, plain.shape[1]] = ord(",")
-        buffer[:, plain.shape[1] + 1 :] = slots.reshape(rows, -1)
-        return buffer.tobytes().translate(None, b"\x00").decode("ascii")
-    text = slots.tobytes().translate(None, b"\x00").decode("ascii")
+        slots[:, 0, 0] = ord(",")
+        buffer = np.empty((rows, 1 + plain.shape[1] + slots[0].size), np.uint8)
+        buffer[:, 0] = ord("\n")
+        buffer[:, 1 : 1 + plain.shape[1]] = plain
+        buffer[:, 1 + plain.shape[1] :] = slots.reshape(rows, -1)
+        return buffer.tobytes().translate(None, b"\x00")[1:] + b"\n"
+    slots[:, 0, 0] = ord("\n")
+    text = slots.tobytes().translate(None, b"\x00")[1:] + b"\n"
     if cells is None:
         return text
-    lines = text.split("\n")
-    return "".join(f"{i},{r}\n" for i, r in zip(_checked_ids(name, cells), lines, strict=False))
+    lines = text.decode("ascii").split("\n")
+    return "".join(f"{i},{r}\n" for i, r in zip(_checked_ids(name, cells), lines, strict=False)).encode()
 
 
 class TableWriter:
@@ -286,10 +289,18 @@ class TableWriter:
             )
         if len(data) == 0:
             return
+        raw = None
+        if type(self.fh) is io.TextIOWrapper:  # a staged file: its bytes, without decoding them again
+            self.fh.flush()
+            raw = self.fh.buffer
         for start in range(0, len(data), FORMAT_ROWS):
             stop = start + FORMAT_ROWS
             part = None if ids is None else ids[start:stop]
-            self.fh.write(format_rows(self.name, data[start:stop], part, self.missing))
+            text = format_rows(self.name, data[start:stop], part, self.missing)
+            if raw is not None:
+                raw.write(text)
+            else:
+                self.fh.write(text.decode("utf-8"))
         self.rows += len(data)
 
 
@@ -335,3 +346,58 @@ def write_table(
     seen) and is written as an empty cell, as in a target measurement file.
     """
     write_table_blocks(path, columns, [(np.asarray(data, dtype=float), ids)], comment, outputs, missing)
+
+
+def write_poses(
+    path: str | os.PathLike[str],
+    poses: NDArray[np.float64],
+    ids: Sequence[str] | None = None,
+    comment: str | None = None,
+    outputs: OutputSet | None = None,
+) -> None:
+    """Write a pose file with angles in radians (columns ``x, y, z, a, b, c``)."""
+    write_table(path, ("x", "y", "z", "a", "b", "c"), poses, ids, comment, outputs)
+
+
+def write_legs(
+    path: str | os.PathLike[str],
+    lengths: NDArray[np.float64],
+    readings: NDArray[np.float64],
+    ids: Sequence[str] | None = None,
+    comment: str | None = None,
+    outputs: OutputSet | None = None,
+) -> None:
+    """Write a leg file with ``l1..l6`` and ``dl1..dl6``."""
+    write_table(
+        path,
+        LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS,
+        np.concatenate([lengths, readings], axis=1),
+        ids,
+        comment,
+        outputs,
+    )
+
+
+def write_measurements(
+    path: str | os.PathLike[str],
+    measurements: Measurements,
+    euler: str,
+    orientation: str = "rad",
+    comment: str | None = None,
+    outputs: OutputSet | None = None,
+) -> None:
+    """Write a measurement file with orientations as ``rad``, ``deg`` or ``quat``."""
+    poses = measurements.poses
+    if orientation == "rad":
+        angles = poses[:, 3:]
+    elif orientation == "deg":
+        angles = np.rad2deg(poses[:, 3:])
+    elif orientation == "quat":
+        from scipy.spatial.transform import Rotation
+
+        angles = Rotation.from_euler(euler, poses[:, 3:]).as_quat()
+    else:
+        raise ValueError(f"orientation must be rad, deg or quat, got {orientation!r}")
+    columns = LEG_READING_COLUMNS + ("x", "y", "z") + ORIENTATION_GROUPS[orientation]
+    data = np.concatenate([measurements.readings, poses[:, :3], angles], axis=1)
+    write_table(path, columns, data, measurements.ids, comment, outputs)
