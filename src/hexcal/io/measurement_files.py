@@ -121,30 +121,30 @@ class _Scanner:
             if self.header is None:
                 self._set_header(k, line)
                 continue
-            fields = self._checked(k, line)
-            if self.units_next:
-                self.units_next = False
-                if self._unit_row(k, fields):
-                    continue
+            if not self._checked(k, line):  # the unit row
+                continue
             records.append(line)
             numbers.append(k)
         return tables.TableBlock.of(records, numbers), len(parts)
 
     def _checked(self, lineno: int, line: str) -> list[str]:
-        """The fields of a data line: their number and lengths checked."""
+        """The fields of a data line (or of the unit row): their number and lengths checked."""
         assert self.header is not None and self.dialect is not None
         fields = tables.split_fields(self.path, lineno, line, self.dialect.delimiter)
+        if len(line) > tables.MAX_FIELD_CHARS:
+            for k, field in enumerate(fields):
+                if len(field) > tables.MAX_FIELD_CHARS:
+                    col = f"column '{self.header[k]}'" if k < len(self.header) else f"field {k + 1}"
+                    raise InputError(f"{self.path}: line {lineno}, {col}: a field of {len(field):,} "
+                                     f"characters, over the limit of {tables.MAX_FIELD_CHARS:,}")
+        units, self.units_next = self.units_next and self._unit_row(lineno, fields), False
         if len(fields) != len(self.header):
             width, delimiter = len(self.header), self.dialect.delimiter
+            if units:
+                raise InputError(f"{self.path}: line {lineno}: the unit row has {len(fields)} fields, but "
+                                 f"the header has {width}; give a unit (or none) for every column")
             raise tables.field_count_error(self.path, lineno, fields, width, delimiter)
-        if len(line) > tables.MAX_FIELD_CHARS:
-            for col, field in zip(self.header, fields, strict=True):
-                if len(field) > tables.MAX_FIELD_CHARS:
-                    raise InputError(
-                        f"{self.path}: line {lineno}, column '{col}': a field of {len(field):,} characters, "
-                        f"over the limit of {tables.MAX_FIELD_CHARS:,}"
-                    )
-        return fields
+        return [] if units else fields
 
     def _set_header(self, lineno: int, line: str) -> None:
         name = self.path
@@ -171,13 +171,13 @@ class _Scanner:
         self.header, self.names = header, tuple(given.get(c, c) for c in header)
 
     def _unit_row(self, lineno: int, cells: list[str]) -> bool:
-        """Whether the first data line is a unit row (checked here), or data."""
+        """Whether the first data line is a unit row (its units checked here), or data."""
         units = [c.strip().strip("[]()").strip().lower() for c in cells]
         if not any(u in tables.KNOWN_UNITS - {"", "-", "1"} for u in units):
             return False
         if not all(u in tables.KNOWN_UNITS or not tables.NUMBER_TEXT.match(u) for u in units):
             return False
-        for ours, col, unit, cell in zip(self.names, self.header or (), units, cells, strict=True):
+        for ours, col, unit, cell in zip(self.names, self.header or (), units, cells, strict=False):
             accepted = tables.unit_refused(ours, unit)
             if accepted is not None:
                 where = f"{self.path}: line {lineno}, column '{col}'"
@@ -415,15 +415,18 @@ def iter_poses(
     length of the file; the radians-look-like-degrees warning is given once.
     """
     ids = _BlockIds(lambda: iter_tables(path, block_rows, delimiter, decimal, columns))
-    warned = False
+    said: set[str] = set()
     for table in iter_tables(path, block_rows, delimiter, decimal, columns):
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", InputWarning)
-            poses = table_poses(table, euler)
-        for item in caught:
-            if not warned:
-                warnings.warn(item.message, item.category, stacklevel=2)
-                warned = True
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", InputWarning)
+                poses = table_poses(table, euler)
+        finally:  # each warning once a file (the degrees one names its first block only)
+            for item in caught:
+                key = "degrees" if "±π/2" in str(item.message) else str(item.message)
+                if key not in said:
+                    warnings.warn(item.message, item.category, stacklevel=2)
+                    said.add(key)
         yield poses, ids(table)
 
 

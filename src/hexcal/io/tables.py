@@ -339,11 +339,11 @@ class Table:
             raise InputError(f"{where}: {_shown(text)} has a thousands separator; remove it")
         other = "," if mark == "." else "."
         if other in text and NUMBER_TEXT.match(text):
-            raise InputError(
-                f"{where}: {_shown(text)} has a decimal {'comma' if other == ',' else 'point'}, but the "
-                f"file's numbers have decimal {'points' if other == ',' else 'commas'} (decimal='{other}'"
-                f" / --decimal {other} if that is wrong; no thousands separators)"
-            )
+            if other == ",":
+                raise InputError(f"{where}: {_shown(text)} has a decimal comma, but the numbers of this file "
+                                 "have decimal points (decimal=',', --decimal ',', reads decimal commas)")
+            raise InputError(f"{where}: {_shown(text)} has a point, but the numbers of this file have "
+                             "decimal commas (a thousands separator? remove it; decimal='.' reads points)")
         try:
             if "_" in text:
                 raise ValueError(text)
