@@ -30,10 +30,10 @@ from hexcal.io.outputs import OutputError, OutputSet
 from hexcal.io.tables import LEG_LENGTH_COLUMNS, LEG_READING_COLUMNS, ORIENTATION_GROUPS
 from hexcal.models.pose import Measurements
 
-#: Bytes of one value's slot, in 8-byte words: separator and sign; "0" and the 15 digits; the
+#: Bytes of one value's slot, in 4-byte words: separator and sign; "0" and the 15 digits; the
 #: point and the zeros of ``0.000d``; the 15 digits again; the exponent (``e-05``). NUL bytes
 #: are dropped when written; a block keeps only the words its values use.
-SLOT = 56
+SLOT = 44
 
 #: Rows formatted at a time (temporaries of ``SLOT`` bytes per value stay in the cache).
 FORMAT_ROWS = 1024
@@ -43,13 +43,12 @@ _POW = 10.0 ** np.arange(_E_MAX - _E_MIN + 1)
 _CODES = 2 * (_E_MAX - _E_MIN + 1) * 15  # sign x exponent x last significant digit
 _ZERO, _EMPTY, _PYTHON = _CODES, _CODES + 2, _CODES + 3  # zero, -0; an empty cell; by Python
 _DIGITS4 = np.frombuffer("".join(f"{k:04d}" for k in range(10_000)).encode(), dtype=np.uint32)
-_LOW4, _HIGH4 = _DIGITS4.astype(np.uint64), _DIGITS4.astype(np.uint64) << np.uint64(32)
 _ZEROS4 = np.array([4] + [len(s) - len(s.rstrip("0")) for s in (f"{k:04d}" for k in range(1, 10_000))])
-_SIGN, _FIRST, _POINT, _SECOND, _EXPONENT = 7, 8, 24, 32, 48  # byte offsets in the slot
+_SIGN, _FIRST, _POINT, _SECOND, _EXPONENT = 3, 4, 20, 24, 40  # byte offsets in the slot
 
 
-def _layouts() -> tuple[NDArray[np.uint64], NDArray[np.uint64]]:
-    """Per code, the mask of the digit bytes kept and the constant bytes, as 8-byte words.
+def _layouts() -> tuple[NDArray[np.uint32], NDArray[np.uint32]]:
+    """Per code, the mask of the digit bytes kept and the constant bytes, as 4-byte words.
 
     A value keeps its integer digits from the first copy of the digits and its fraction
     digits from the second, so that the point and the zeros of ``0.00d`` never move.
@@ -75,14 +74,14 @@ def _layouts() -> tuple[NDArray[np.uint64], NDArray[np.uint64]]:
                     keep[code, _SECOND + 2 + whole : _SECOND + 2 + last] = 255
                 if e < -4:  # scientific notation: d.ddde-0X
                     const[code, _EXPONENT : _EXPONENT + 4] = np.frombuffer(f"e-{-e:02d}".encode(), np.uint8)
-    return keep.view(np.uint64), const.view(np.uint64)
+    return keep.view(np.uint32), const.view(np.uint32)
 
 
 _KEEP, _CONST = _layouts()
-_TABLES: dict[tuple[int, ...], tuple[NDArray[np.uint64], NDArray[np.uint64]]] = {}
+_TABLES: dict[tuple[int, ...], tuple[NDArray[np.uint32], NDArray[np.uint32]]] = {}
 
 
-def _tables(words: tuple[int, ...]) -> tuple[NDArray[np.uint64], NDArray[np.uint64]]:
+def _tables(words: tuple[int, ...]) -> tuple[NDArray[np.uint32], NDArray[np.uint32]]:
     """The masks and constants of the words a block uses (contiguous, kept for the next block)."""
     if words not in _TABLES:
         _TABLES[words] = (np.ascontiguousarray(_KEEP[:, words]), np.ascontiguousarray(_CONST[:, words]))
@@ -147,10 +146,11 @@ def _significand(
 def _words(e: NDArray[np.int64], last: NDArray[np.int64], python: bool) -> tuple[int, ...]:
     """The words of the slot that some value of the block may use (all when Python formats some)."""
     if python:
-        return tuple(range(SLOT // 8))
+        return tuple(range(SLOT // 4))
     low, high = int(e.min()), int(e.max())
-    words = (0, 1) + ((2,) if high >= 7 else ()) + (3,) + ((4,) if low <= 5 else ())
-    return words + ((5,) if int(last.max()) >= 7 else ()) + ((6,) if low < -4 else ())
+    first = tuple(range(1, 2 + (1 + max(high, 0)) // 4))  # "0" and the integer digits
+    second = tuple(range(6 + (1 + (0 if low < 0 else low + 1)) // 4, 7 + (1 + int(last.max())) // 4))
+    return (0, *first, 5, *second) + ((10,) if low < -4 else ())
 
 
 def format_values(values: NDArray[np.float64], missing: bool = False) -> NDArray[np.uint8]:
@@ -162,15 +162,13 @@ def format_values(values: NDArray[np.float64], missing: bool = False) -> NDArray
     v = np.ascontiguousarray(values, dtype=float).ravel()
     a = np.abs(v)
     zero = ~(a > 0)  # and NaN
-    m, e, python = _significand(np.where(zero, 1.0, a))
+    m, e, python = _significand(np.where(zero, 1.0, a) if zero.any() else a)
     hi = np.floor(m / 1e8)
     lo = m - hi * 1e8
     g0, g2 = np.floor(hi / 1e4), np.floor(lo / 1e4)
     groups = np.empty((4, v.size), np.intp)  # the digits in groups of four
     groups[0], groups[1], groups[2], groups[3] = g0, hi - g0 * 1e4, g2, lo - g2 * 1e4
-    chars = np.empty((v.size, 2), np.uint64)  # "0" and the 15 digits, 16 bytes
-    chars[:, 0] = np.take(_LOW4, groups[0]) | np.take(_HIGH4, groups[1])
-    chars[:, 1] = np.take(_LOW4, groups[2]) | np.take(_HIGH4, groups[3])
+    chars = np.take(_DIGITS4, groups)  # "0" and the 15 digits, four to a word
     zeros = np.take(_ZEROS4, groups[3])
     for k in (2, 1, 0):  # trailing zeros beyond the last group of four
         more = np.flatnonzero(zeros == 4 * (3 - k))
@@ -185,10 +183,10 @@ def format_values(values: NDArray[np.float64], missing: bool = False) -> NDArray
     some_python = bool(python.any())
     code[python] = _PYTHON
     words = _words(e, last, some_python)
-    out = np.empty((v.size, len(words)), np.uint64)
+    out = np.empty((v.size, len(words)), np.uint32)
     for k, word in enumerate(words):
-        if word in (1, 2, 4, 5):
-            out[:, k] = chars[:, (word - 1) % 3]
+        if 1 <= word <= 4 or 6 <= word <= 9:
+            out[:, k] = chars[(word - 1) % 5]
     keep, const = _tables(words)
     out &= np.take(keep, code, axis=0)
     out |= np.take(const, code, axis=0)
@@ -233,19 +231,14 @@ def format_rows(
     rows, width = data.shape
     flat = format_values(data, missing)
     slots = flat.reshape(rows, width, flat.shape[1])
-    slots[:, 1:, 0] = ord(",")  # each value's separator, before it; a row's line break before it
+    slots[:, 1:, 0] = ord(",")  # each value's separator, before it
     cells = list(map(str, ids)) if ids is not None else None
     plain = _plain_ids(cells) if cells is not None else None
-    if cells is not None and plain is not None:
-        slots[:, 0, 0] = ord(",")
-        buffer = np.empty((rows, 1 + plain.shape[1] + slots[0].size), np.uint8)
-        buffer[:, 0] = ord("\n")
-        buffer[:, 1 : 1 + plain.shape[1]] = plain
-        buffer[:, 1 + plain.shape[1] :] = slots.reshape(rows, -1)
-        return buffer.tobytes().translate(None, b"\x00")[1:] + b"\n"
-    slots[:, 0, 0] = ord("\n")
-    text = slots.tobytes().translate(None, b"\x00")[1:] + b"\n"
-    if cells is None:
+    slots[:, 0, 0] = ord(",") if plain is not None else 0
+    ends = np.full((rows, 1), ord("\n"), np.uint8)
+    parts = [slots.reshape(rows, -1), ends] if plain is None else [plain, slots.reshape(rows, -1), ends]
+    text = np.concatenate(parts, axis=1).tobytes().translate(None, b"\x00")
+    if cells is None or plain is not None:
         return text
     lines = text.decode("ascii").split("\n")
     return "".join(f"{i},{r}\n" for i, r in zip(_checked_ids(name, cells), lines, strict=False)).encode()

@@ -295,12 +295,8 @@ class Table:
             text = text.replace(",", ".")
         if not block.checked and text.count(d) != len(block) * (width - 1):
             return None
-        id_col = self.columns.index("id") if ids is not None else None
-        use = sorted({*idx, width - 1} | ({id_col} if id_col is not None else set()))
-        found: list[str] = []
-        converters = {k: (lambda s: 0.0) for k in use if k not in idx}
-        if id_col is not None:
-            converters[id_col] = lambda s: found.append(s) or 0.0
+        use = sorted({*idx, width - 1})
+        converters = {k: (lambda s: 0.0) for k in use if k not in idx} or None  # text, not asked
         try:
             values = np.loadtxt(io.StringIO(text), delimiter=d, usecols=use, converters=converters,
                                 dtype=float, comments=None, quotechar=None, ndmin=2)  # fmt: skip
@@ -309,8 +305,10 @@ class Table:
         if values.shape[0] != len(block) or not np.isfinite(values).all():
             return None
         block.checked = True
-        if ids is not None:
-            ids.extend(found)
+        if ids is not None:  # the id cells from the lines (cheaper than a converter in loadtxt)
+            k = self.columns.index("id")
+            rows = block.text.split("\n")[:-1]
+            ids.extend([r.partition(d)[0] for r in rows] if k == 0 else [r.split(d, k + 1)[k] for r in rows])
         return values[:, [use.index(k) for k in idx]]
 
     def _column(self, cells: list[str], block: TableBlock, name: str, empty: bool) -> NDArray[np.float64]:
