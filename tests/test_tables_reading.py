@@ -381,3 +381,27 @@ def test_readers_leave_every_file_unchanged_and_raise_only_hexcal_errors(tmp_pat
                 except HexcalError:
                     pass
     assert {p: p.read_bytes() for p in files} == before
+
+
+@pytest.mark.parametrize("ending", ["\r\n", "\n"])
+def test_large_files_read_the_same_in_blocks_and_whole(tmp_path, ending):
+    """Thousands of rows: the chunk-as-a-block path, with CRLF or LF line ends, and ids with points."""
+    rng = np.random.default_rng(5)
+    poses = np.round(rng.uniform(-200, 200, (5000, 6)) / [1, 1, 1, 1000, 1000, 1000], 6)
+    text = "id;x;y;z;a;b;c" + ending
+    text += "".join(
+        f"p.{k};" + ";".join(repr(float(v)).replace(".", ",") for v in p) + ending
+        for k, p in enumerate(poses)
+    )
+    path = tmp_path / "big.csv"
+    path.write_bytes(text.encode())
+    whole, ids = read_poses(path, "XYZ")
+    np.testing.assert_array_equal(whole, poses)
+    assert ids[:2] == ("p.0", "p.1") and len(set(ids)) == 5000
+    blocks = list(iter_poses(path, "XYZ", 777))
+    np.testing.assert_array_equal(np.concatenate([b[0] for b in blocks]), poses)
+    assert sum((b[1] for b in blocks), ()) == ids
+    bad = text.replace(f"p.4321;{repr(float(poses[4321, 0])).replace('.', ',')}", "p.4321;1.234,5")
+    path.write_bytes(bad.encode())
+    with pytest.raises(InputError, match=r"line 4323, column 'x': '1\.234,5' has a thousands separator"):
+        list(iter_poses(path, "XYZ", 1000))
