@@ -43,8 +43,22 @@ def campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (d / "true.yaml").write_text(TRUE_SETUP)
     (d / "start.yaml").write_text(START_SETUP)
     for name, n, seed in (("poses", 60, 1), ("held", 30, 2)):
-        assert main(["candidates", "--geometry", "paper-hmt", "--candidates", f"random:{n}",
-                     "--seed", str(seed), "--out", str(d / f"{name}.csv")]) == 0
+        assert (
+            main(
+                [
+                    "candidates",
+                    "--geometry",
+                    "paper-hmt",
+                    "--candidates",
+                    f"random:{n}",
+                    "--seed",
+                    str(seed),
+                    "--out",
+                    str(d / f"{name}.csv"),
+                ]
+            )
+            == 0
+        )
         assert main(["synthesize", "--nominal", "paper-hmt", "--true", "paper-hmt-true",
                      "--poses", str(d / f"{name}.csv"), "--setup", str(d / "true.yaml"),
                      "--missing-rate", "0.08", *NOISE, "--seed", str(seed + 10),

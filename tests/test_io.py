@@ -641,7 +641,7 @@ def test_table_text_is_what_the_csv_module_writes(tmp_path):
     data[0] = [-0.0, 0.0, 1e300]
     data[1] = [0.1 + 0.2, 123456789012345678.0, -5e-324]
     ids = [f"p{k}" for k in range(40)]
-    ids[2], ids[3], ids[4] = 'with,comma', 'with "quote"', " spaced "
+    ids[2], ids[3], ids[4] = "with,comma", 'with "quote"', " spaced "
     expected = io.StringIO()
     expected.write("# a\n# b\n")
     writer = csv.writer(expected, lineterminator="\n")

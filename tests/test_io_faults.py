@@ -28,7 +28,7 @@ import yaml
 from numpy.testing import assert_array_equal
 
 import hexcal.io.outputs as outputs_module
-import hexcal.io.tables as tables_module
+import hexcal.io.table_reading as table_reading_module
 from hexcal.core.presets import preset
 from hexcal.errors import HexcalError, InputError, InputWarning
 from hexcal.io import (
@@ -511,7 +511,7 @@ def test_the_row_limit_names_itself_and_the_option(tmp_path):
 
 @pytest.mark.parametrize("ending", ["\n", "\r\n", "\r"])
 def test_blocks_equal_the_whole_table_across_chunk_boundaries(tmp_path, monkeypatch, ending):
-    monkeypatch.setattr(tables_module, "_CHUNK_CHARS", 7)  # cut lines, and \r\n, everywhere
+    monkeypatch.setattr(table_reading_module, "_CHUNK_BYTES", 7)  # cut lines, and \r\n, everywhere
     rng = np.random.default_rng(3)
     poses = rng.uniform(-1, 1, (23, 6))
     lines = ["# c", f"id,{POSES}"] + [

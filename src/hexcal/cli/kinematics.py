@@ -85,7 +85,7 @@ def cmd_fk(args: argparse.Namespace) -> None:
         warned = False
         for legs in iter_legs(args.legs):
             if legs.readings is not None:  # the controller's readings, through l0 and the gains
-                if legs.lengths is not None and not warned:
+                if legs.has_lengths and not warned:  # the lengths stay unconverted
                     warn(
                         f"hexcal: {args.legs} has both l and dl columns: using dl (the controller's readings)"
                     )

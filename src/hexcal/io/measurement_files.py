@@ -1,12 +1,15 @@
-"""Pose, measurement and leg files (FORMATS.md) on top of :mod:`hexcal.io.tables`."""
+"""Pose, measurement and leg files (docs/formats.md), read with :mod:`hexcal.io.table_reading`.
+
+Orientation columns are one of ``a, b, c`` (rad), ``a_deg, b_deg, c_deg`` or ``qx, qy, qz, qw``
+(a unit quaternion, scalar last); leg files hold ``l1..l6`` and/or ``dl1..dl6``.
+"""
 
 from __future__ import annotations
 
 import math
 import os
 import warnings
-from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping
 
 import numpy as np
 from numpy.typing import NDArray
@@ -14,8 +17,15 @@ from numpy.typing import NDArray
 from hexcal.errors import InputError, InputWarning
 from hexcal.instruments.pose import Measurements
 from hexcal.io.inputs import DEFAULT_MAX_ROWS, MEASUREMENT_MAX_ROWS
-from hexcal.io.outputs import OutputSet
-from hexcal.io.tables import BLOCK_ROWS, Table, iter_tables, read_table, write_table
+from hexcal.io.table_reading import iter_tables, read_table
+from hexcal.io.table_writing import write_legs, write_measurements, write_poses
+from hexcal.io.tables import BLOCK_ROWS, LEG_LENGTH_COLUMNS, LEG_READING_COLUMNS, ORIENTATION_GROUPS, Table
+
+__all__ = ["iter_tables", "read_table", "write_legs", "write_measurements", "write_poses"]  # as before
+
+Path = str | os.PathLike[str]
+Columns = Mapping[str, str] | None
+
 
 #: A quaternion whose norm differs from 1 by more than this is refused (others are
 #: normalised). 1e-3 admits instruments that print 4 decimals and catches a wrong column.
@@ -23,14 +33,6 @@ QUATERNION_NORM_TOLERANCE = 1e-3
 
 #: Radian angle columns beyond this magnitude draw a warning that they may be degrees.
 DEGREE_SUSPICION = math.pi / 2
-
-ORIENTATION_GROUPS = {
-    "rad": ("a", "b", "c"),
-    "deg": ("a_deg", "b_deg", "c_deg"),
-    "quat": ("qx", "qy", "qz", "qw"),
-}
-LEG_LENGTH_COLUMNS = tuple(f"l{i}" for i in range(1, 7))
-LEG_READING_COLUMNS = tuple(f"dl{i}" for i in range(1, 7))
 
 
 def _orientation_group(table: Table) -> str:
@@ -69,8 +71,9 @@ def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
         bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_NORM_TOLERANCE)
         if bad.size:
             k = bad[0]
+            names = ", ".join(table.label(c) for c in ORIENTATION_GROUPS["quat"])
             raise InputError(
-                f"{table.path}: line {table.line(int(k))}, columns 'qx, qy, qz, qw': quaternion norm "
+                f"{table.path}: line {table.line(int(k))}, columns '{names}': quaternion norm "
                 f"{norms[k]:.6g} is not 1 (tolerance {QUATERNION_NORM_TOLERANCE:g})"
             )
         from scipy.spatial.transform import Rotation  # deferred: slow to import
@@ -82,24 +85,34 @@ def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
 
 
 def read_poses(
-    path: str | os.PathLike[str], euler: str, max_rows: int | None = DEFAULT_MAX_ROWS
+    path: Path,
+    euler: str,
+    max_rows: int | None = DEFAULT_MAX_ROWS,
+    delimiter: str | None = None,
+    decimal: str | None = None,
+    columns: Columns = None,
 ) -> tuple[NDArray[np.float64], tuple[str, ...]]:
-    """A pose file: poses ``(m, 6)`` (mm, rad, in ``euler``) and their ids (``max_rows``: see
-    :func:`~hexcal.io.tables.read_table`)."""
-    table = read_table(path, max_rows)
+    """A pose file: poses ``(m, 6)`` (mm, rad, in ``euler``) and their ids (``max_rows``,
+    ``delimiter``, ``decimal``, ``columns``: see :func:`read_table`)."""
+    table = read_table(path, max_rows, delimiter, decimal, columns)
     return table_poses(table, euler), table.ids()
 
 
 def read_measurements(
-    path: str | os.PathLike[str], euler: str, max_rows: int | None = MEASUREMENT_MAX_ROWS
+    path: Path,
+    euler: str,
+    max_rows: int | None = MEASUREMENT_MAX_ROWS,
+    delimiter: str | None = None,
+    decimal: str | None = None,
+    columns: Columns = None,
 ) -> Measurements:
     """A measurement file: measured poses, leg readings ``dl1..dl6`` and ids.
 
     More than ``max_rows`` rows (default :data:`~hexcal.io.inputs.MEASUREMENT_MAX_ROWS`,
-    100,000) are refused while reading, before conversion, with a message naming the limit
-    and ``--max-rows``.
+    100,000) are refused while reading, naming the limit and ``--max-rows``; ``delimiter``,
+    ``decimal``, ``columns``: see :func:`read_table`.
     """
-    table = read_table(path, max_rows)
+    table = read_table(path, max_rows, delimiter, decimal, columns)
     group = ORIENTATION_GROUPS[_orientation_group(table)]
     table.numbers(("x", "y", "z", *group, *LEG_READING_COLUMNS))  # converted in one pass, kept
     poses = table_poses(table, euler)
@@ -107,123 +120,131 @@ def read_measurements(
     return Measurements(poses, readings, table.ids())
 
 
-@dataclass(frozen=True)
 class LegData:
-    """A leg file: absolute lengths and/or readings, and ids."""
+    """A leg file: absolute lengths and/or readings, and ids.
 
-    lengths: NDArray[np.float64] | None
-    readings: NDArray[np.float64] | None
-    ids: tuple[str, ...]
+    When the file has both, ``lengths`` is converted when first used (``fk`` uses only the
+    readings); ``has_lengths`` says whether the file has them without converting.
+    """
+
+    def __init__(
+        self,
+        lengths: NDArray[np.float64] | None,
+        readings: NDArray[np.float64] | None,
+        ids: tuple[str, ...],
+        table: Table | None = None,
+    ) -> None:
+        self._lengths, self.readings, self.ids, self._table = lengths, readings, ids, table
+        self.has_lengths = lengths is not None or table is not None
+
+    @property
+    def lengths(self) -> NDArray[np.float64] | None:
+        if self._lengths is None and self._table is not None:
+            self._lengths, self._table = self._table.numbers(LEG_LENGTH_COLUMNS), None
+        return self._lengths
 
 
-def read_legs(path: str | os.PathLike[str], max_rows: int | None = DEFAULT_MAX_ROWS) -> LegData:
+def read_legs(
+    path: Path,
+    max_rows: int | None = DEFAULT_MAX_ROWS,
+    delimiter: str | None = None,
+    decimal: str | None = None,
+    columns: Columns = None,
+) -> LegData:
     """A leg file with ``l1..l6`` and/or ``dl1..dl6`` (at least one group complete)."""
-    return table_legs(read_table(path, max_rows))
+    return table_legs(read_table(path, max_rows, delimiter, decimal, columns))
 
 
 def table_legs(table: Table, ids: tuple[str, ...] | None = None) -> LegData:
     """Leg lengths and/or readings of a table (``ids``: already read, for blocks)."""
+    return _legs(table, lambda: table.ids() if ids is None else ids)
+
+
+def _legs(table: Table, ids: Callable[[], tuple[str, ...]]) -> LegData:
+    """Leg data of a table, its ids read after the numbers (read with them, in one pass)."""
     has_l = any(table.has(c) for c in LEG_LENGTH_COLUMNS)
     has_dl = any(table.has(c) for c in LEG_READING_COLUMNS)
     if not (has_l or has_dl):
         raise InputError(f"{table.path}: missing leg columns: give l1..l6 or dl1..dl6")
-    table.numbers((LEG_LENGTH_COLUMNS if has_l else ()) + (LEG_READING_COLUMNS if has_dl else ()))
-    lengths = table.numbers(LEG_LENGTH_COLUMNS) if has_l else None
+    if has_l:
+        table.numbers([c for c in LEG_LENGTH_COLUMNS if not table.has(c)][:1])  # a missing one: named now
     readings = table.numbers(LEG_READING_COLUMNS) if has_dl else None
-    return LegData(lengths, readings, table.ids() if ids is None else ids)
+    lengths = table.numbers(LEG_LENGTH_COLUMNS) if has_l and not has_dl else None
+    return LegData(lengths, readings, ids(), table if has_l and has_dl else None)
 
 
 class _BlockIds:
-    """Ids across the blocks of one file (repeats found across blocks)."""
+    """Ids across the blocks of one file: repeats refused, naming the line of the first one.
 
-    def __init__(self) -> None:
-        self.seen: dict[str, int] = {}
-        self.count = 0
+    A set keeps the ids seen (a dict of their lines would cost several times more); the line
+    of an earlier id is looked up by reading the file again, only when one repeats.
+    """
+
+    def __init__(self, blocks: Callable[[], Iterator[Table]]) -> None:
+        self.seen: set[str] = set()
+        self.count, self.again = 0, blocks
 
     def __call__(self, table: Table) -> tuple[str, ...]:
-        ids = table.ids(self.seen if table.has("id") else None, first=self.count + 1)
+        if table.has("id"):
+            ids = table.ids()  # the repeats inside the block are refused here
+            before = len(self.seen)
+            self.seen.update(ids)
+            if len(self.seen) != before + len(ids):  # a repeat of an earlier block
+                table.ids(self._earlier(set(ids), table.line(0)))
+        else:
+            ids = table.ids(first=self.count + 1)
         self.count += len(ids)
         return ids
 
+    def _earlier(self, ids: set[str], stop: int) -> dict[str, int]:
+        """The first line of each of ``ids`` before line ``stop`` (read from the file again)."""
+        found: dict[str, int] = {}
+        for block in self.again():
+            for value, line in zip(block.cells("id"), block.lines, strict=True):
+                if line >= stop:
+                    return found
+                if value in ids:
+                    found.setdefault(value, line)
+        return found
+
 
 def iter_poses(
-    path: str | os.PathLike[str], euler: str, block_rows: int = BLOCK_ROWS
+    path: Path,
+    euler: str,
+    block_rows: int = BLOCK_ROWS,
+    delimiter: str | None = None,
+    decimal: str | None = None,
+    columns: Columns = None,
 ) -> Iterator[tuple[NDArray[np.float64], tuple[str, ...]]]:
     """A pose file in blocks: ``(poses (k, 6), ids)`` per block of ``block_rows`` rows.
 
     Memory is bounded by one block (and the ids seen, to refuse repeats), whatever the
     length of the file; the radians-look-like-degrees warning is given once.
     """
-    ids = _BlockIds()
-    warned = False
-    for table in iter_tables(path, block_rows):
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", InputWarning)
-            poses = table_poses(table, euler)
-        for item in caught:
-            if not warned:
-                warnings.warn(item.message, item.category, stacklevel=2)
-                warned = True
+    ids = _BlockIds(lambda: iter_tables(path, block_rows, delimiter, decimal, columns))
+    said: set[str] = set()
+    for table in iter_tables(path, block_rows, delimiter, decimal, columns):
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", InputWarning)
+                poses = table_poses(table, euler)
+        finally:  # each warning once a file (the degrees one names its first block only)
+            for item in caught:
+                key = "degrees" if "±π/2" in str(item.message) else str(item.message)
+                if key not in said:
+                    warnings.warn(item.message, item.category, stacklevel=2)
+                    said.add(key)
         yield poses, ids(table)
 
 
-def iter_legs(path: str | os.PathLike[str], block_rows: int = BLOCK_ROWS) -> Iterator[LegData]:
+def iter_legs(
+    path: Path,
+    block_rows: int = BLOCK_ROWS,
+    delimiter: str | None = None,
+    decimal: str | None = None,
+    columns: Columns = None,
+) -> Iterator[LegData]:
     """A leg file in blocks of ``block_rows`` rows (memory bounded by one block)."""
-    ids = _BlockIds()
-    for table in iter_tables(path, block_rows):
-        yield table_legs(table, ids(table))
-
-
-def write_poses(
-    path: str | os.PathLike[str],
-    poses: NDArray[np.float64],
-    ids: Sequence[str] | None = None,
-    comment: str | None = None,
-    outputs: OutputSet | None = None,
-) -> None:
-    """Write a pose file with angles in radians (columns ``x, y, z, a, b, c``)."""
-    write_table(path, ("x", "y", "z", "a", "b", "c"), poses, ids, comment, outputs)
-
-
-def write_legs(
-    path: str | os.PathLike[str],
-    lengths: NDArray[np.float64],
-    readings: NDArray[np.float64],
-    ids: Sequence[str] | None = None,
-    comment: str | None = None,
-    outputs: OutputSet | None = None,
-) -> None:
-    """Write a leg file with ``l1..l6`` and ``dl1..dl6``."""
-    write_table(
-        path,
-        LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS,
-        np.concatenate([lengths, readings], axis=1),
-        ids,
-        comment,
-        outputs,
-    )
-
-
-def write_measurements(
-    path: str | os.PathLike[str],
-    measurements: Measurements,
-    euler: str,
-    orientation: str = "rad",
-    comment: str | None = None,
-    outputs: OutputSet | None = None,
-) -> None:
-    """Write a measurement file with orientations as ``rad``, ``deg`` or ``quat``."""
-    poses = measurements.poses
-    if orientation == "rad":
-        angles = poses[:, 3:]
-    elif orientation == "deg":
-        angles = np.rad2deg(poses[:, 3:])
-    elif orientation == "quat":
-        from scipy.spatial.transform import Rotation
-
-        angles = Rotation.from_euler(euler, poses[:, 3:]).as_quat()
-    else:
-        raise ValueError(f"orientation must be rad, deg or quat, got {orientation!r}")
-    columns = LEG_READING_COLUMNS + ("x", "y", "z") + ORIENTATION_GROUPS[orientation]
-    data = np.concatenate([measurements.readings, poses[:, :3], angles], axis=1)
-    write_table(path, columns, data, measurements.ids, comment, outputs)
+    ids = _BlockIds(lambda: iter_tables(path, block_rows, delimiter, decimal, columns))
+    for table in iter_tables(path, block_rows, delimiter, decimal, columns):
+        yield _legs(table, lambda table=table: ids(table))

@@ -1,450 +1,423 @@
-"""CSV tables: strict reading (every problem named by file, line and column) and writing.
+"""CSV tables: the table model behind hexcal's one reader of every table (FORMATS.md).
 
-Reading rules (FORMATS.md, with two extensions marked *):
+A :class:`Table` holds a file's data rows as text, block by block (:class:`TableBlock`),
+with their physical line numbers, the file's :class:`Dialect` (delimiter and decimal mark)
+and hexcal's names of its columns (a column map renames the file's; messages name the
+file's own column). Numbers are converted on demand, all the columns asked together, by
+numpy's C parser (``np.loadtxt``) on a block's text; a block it refuses is converted cell
+by cell, which names the first bad cell in reading order. The rules of every cell:
 
-- one physical line is one record (no line breaks inside quoted fields); blank lines are
-  skipped; a UTF-8 byte order mark at the start is skipped;
-- lines whose first non-blank character is ``#`` are comments: before the header (FORMATS.md)
-  and, *, after it too (a commented-out row is skipped, never read as a row with id ``#``;
-  an ``id`` cell starting with ``#`` is refused);
-- * a second byte order mark at the start of the file is skipped with an
-  :class:`~hexcal.errors.InputWarning` (it would otherwise hide the first column's name);
-- a quoted field over the csv module's limit (131,072 characters) is refused with one line.
+- the decimal mark is the file's: a comma-separated file has decimal points; otherwise the
+  first block whose numbers show a mark decides (``12,5`` against ``12.5``), unless
+  ``decimal=`` gives it; a given mark the numbers contradict draws an
+  :class:`~hexcal.errors.InputWarning`;
+- a number is never guessed: one with both marks (``1.234,5``, ``1,234.5``: a thousands
+  separator) or with the other mark than the file's is refused, naming the cell;
+- ``nan``, ``inf``, Python's digit separators (``1_0``) and empty cells are refused
+  (empty cells are NaN where a value may be missing: lost targets).
 
-Only regular files are read (:mod:`hexcal.io.inputs`). :func:`read_table` refuses a file with
-more than ``max_rows`` data rows (default :data:`~hexcal.io.inputs.DEFAULT_MAX_ROWS`) while
-reading it; :func:`iter_tables` reads a file of any length in blocks of rows, in bounded
-memory. Numbers are converted a block at a time with numpy (``float`` semantics, digit
-separators ``_`` refused); a table keeps its data lines as text until then.
-
-Writing is in :mod:`hexcal.io.table_writing` (re-exported here).
+Reading files (the scanner: chunks, comments, the header, the unit row, row and field
+limits) is :func:`hexcal.io.measurement_files.read_table` / ``iter_tables``; hexcal's
+column names and column maps are here (:data:`COLUMN_NAMES`, :func:`check_column_map`).
 """
 
 from __future__ import annotations
 
 import csv
 import io
-import os
+import itertools
+import re
 import warnings
-from collections.abc import Iterator, Sequence
-from typing import IO
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.errors import InputError, InputWarning
-from hexcal.io.inputs import DEFAULT_MAX_ROWS, open_input, read_text, row_limit, too_many_rows
+from hexcal.errors import InputError, InputWarning, UsageError
 
-#: Rows converted (or read, by :func:`iter_tables`) at a time.
+#: Rows converted (or read, by ``iter_tables``) at a time.
 BLOCK_ROWS = 16_384
+#: Characters a field may have (the csv module's default limit); longer is refused.
+MAX_FIELD_CHARS = 131_072
+DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
+#: The text of a number, with either decimal mark.
+NUMBER_TEXT = re.compile(r"^[+-]?(\d+([.,]\d*)?|[.,]\d+)([eE][+-]?\d+)?$")
 
-_CHUNK_CHARS = 1 << 22
-_BOM = "\ufeff"
+ORIENTATION_GROUPS = {
+    "rad": ("a", "b", "c"),
+    "deg": ("a_deg", "b_deg", "c_deg"),
+    "quat": ("qx", "qy", "qz", "qw"),
+}
+LEG_LENGTH_COLUMNS = tuple(f"l{i}" for i in range(1, 7))
+LEG_READING_COLUMNS = tuple(f"dl{i}" for i in range(1, 7))
+#: hexcal's column names, the keys of a column map (and target columns ``t1.x``, ``t2.y``, ...).
+COLUMN_NAMES = ("id", "x", "y", "z", *(c for g in ORIENTATION_GROUPS.values() for c in g))
+COLUMN_NAMES += LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS
+TARGET_COLUMN = re.compile(r"^(t[0-9]+)\.([xyz])$")
+
+#: Words a unit row may hold (brackets and case ignored); only some are accepted per column.
+UNIT_WORDS = {"mm", "rad", "deg", "°", "-", "", "1"}
+KNOWN_UNITS = UNIT_WORDS | {"m", "cm", "dm", "um", "µm", "μm", "nm", "in", "inch", "ft", "mrad", "urad"}
+KNOWN_UNITS |= {"µrad", "degree", "degrees", "grad", "gon", "rev", "revolutions", "turns"}
+_LENGTHS = re.compile(r"^(x|y|z|d?l[1-6]|t[0-9]+\.[xyz])$")
+_UNITS = {  # per column kind: the units accepted, and how to say so
+    "length": ({"mm", ""}, "mm here"),
+    "rad": ({"rad", ""}, "rad here (name the columns a_deg, b_deg, c_deg for degrees)"),
+    "deg": ({"deg", "°", "degree", "degrees", ""}, "deg here"),
+    "none": ({"", "-", "1"}, "no unit here (quaternions)"),
+}
 
 
-def _split(path: str, lineno: int, line: str) -> list[str]:
-    """The fields of one line (the csv module only when the line has quotes)."""
-    if '"' not in line:
-        return line.split(",")
-    try:
-        return next(csv.reader([line]))
-    except csv.Error as exc:
-        raise InputError(f"{path}: line {lineno}: cannot read the fields ({exc})") from None
+def unit_refused(name: str, unit: str) -> str | None:
+    """What column ``name`` (hexcal's name) accepts when a unit row gives it ``unit``, or None."""
+    kinds = {c: group if group != "quat" else "none" for group, cs in ORIENTATION_GROUPS.items() for c in cs}
+    kind = "length" if _LENGTHS.match(name) else kinds.get(name)
+    if kind is None or unit in _UNITS[kind][0]:
+        return None
+    return _UNITS[kind][1]
+
+
+def check_column_map(columns: Mapping[str, str] | None) -> dict[str, str] | None:
+    """A column map (hexcal name -> file column) checked: known names, each file column once.
+
+    Raises :class:`~hexcal.errors.UsageError` (one line) otherwise.
+    """
+    if columns is None:
+        return None
+    seen: dict[str, str] = {}
+    for ours, theirs in columns.items():
+        if ours not in COLUMN_NAMES and not TARGET_COLUMN.match(str(ours)):
+            raise UsageError(
+                f"column map: unknown hexcal column {ours!r} (known: {', '.join(COLUMN_NAMES)}, t1.x ...)"
+            )
+        if not isinstance(theirs, str) or not theirs.strip():
+            raise UsageError(f"column map: {ours} needs a file column name, got {theirs!r}")
+        if theirs in seen:
+            raise UsageError(f"column map: file column {theirs!r} is mapped twice ({seen[theirs]}, {ours})")
+        seen[theirs] = ours
+    return dict(columns)
+
+
+def _shown(text: str) -> str:
+    """A cell for a message: quoted, and cut to 40 characters."""
+    return repr(text) if len(text) <= 40 else f"{text[:40]!r}... ({len(text):,} characters)"
+
+
+class Dialect:
+    """A file's delimiter and decimal mark, shared by its blocks (the first that shows decides)."""
+
+    def __init__(self, path: str, header: str, delimiter: str | None, decimal: str | None) -> None:
+        looks = ";" if ";" in header else "\t" if "\t" in header else ","
+        if delimiter is not None and delimiter not in DELIMITERS:
+            raise InputError(f"delimiter must be one of ',', ';', tab, got {delimiter!r}")
+        if decimal is not None and decimal not in (",", "."):
+            raise InputError(f"decimal mark must be ',' or '.', got {decimal!r}")
+        if delimiter is not None and delimiter != looks:
+            warnings.warn(
+                f"{path}: the header looks {DELIMITERS[looks]}-separated, but the file is read "
+                f"{DELIMITERS[delimiter]}-separated as asked",
+                InputWarning,
+                stacklevel=5,
+            )
+        self.path, self.delimiter, self.asked = path, delimiter or looks, decimal
+        if self.delimiter == "," and decimal == ",":
+            raise InputError(f"{path}: a comma cannot be both the delimiter and the decimal mark")
+        self.decimal: str | None = "." if self.delimiter == "," else None
+
+    def decide(self, text: str, cells: list[list[str]] | None) -> None:
+        """Settle the decimal mark from a block's text (and its numeric cells, if both marks show)."""
+        if self.decimal is not None or ("," not in text and "." not in text):
+            return
+        if "." not in text:
+            looks = ","
+        elif "," not in text:
+            looks = "."
+        else:
+            shapes = [c.strip() for row in cells or [] for c in row if NUMBER_TEXT.match(c.strip())]
+            looks = "," if sum("," in c for c in shapes) > sum("." in c for c in shapes) else "."
+        self.decimal = self.asked or looks
+        if self.decimal != looks:
+            warnings.warn(
+                f"{self.path}: the numbers look like decimal {'commas' if looks == ',' else 'points'}, but "
+                f"they are read with a decimal {'comma' if self.decimal == ',' else 'point'} as asked",
+                InputWarning,
+                stacklevel=6,
+            )
+
+
+class TableBlock:
+    """Data lines of a table as one text: each row ends with ``\\n`` at ``ends[k]``."""
+
+    def __init__(self, text: str, lines: NDArray[np.int64], ends: NDArray[np.int64], checked: bool) -> None:
+        self.text, self.lines, self.ends, self.checked = text, lines, ends, checked
+
+    @classmethod
+    def of(cls, records: Sequence[str], lines: Sequence[int]) -> TableBlock:
+        ends = np.cumsum(np.fromiter(map(len, records), np.int64, len(records)) + 1) - 1
+        return cls("".join(f"{r}\n" for r in records), np.asarray(lines, np.int64), ends, True)
+
+    def __len__(self) -> int:
+        return len(self.lines)
+
+    def cut(self, k: int) -> tuple[TableBlock, TableBlock]:
+        at = int(self.ends[k - 1]) + 1
+        head = TableBlock(self.text[:at], self.lines[:k], self.ends[:k], self.checked)
+        return head, TableBlock(self.text[at:], self.lines[k:], self.ends[k:] - at, self.checked)
 
 
 class Table:
-    """A parsed CSV table: column names, data lines as text and their physical line numbers.
+    """A parsed CSV table: column names, data rows (kept as text) and their physical line numbers.
 
     Attributes
     ----------
     path : str
     columns : tuple of str
+        hexcal's names of the columns (the file's, renamed by the column map).
     rows : tuple of tuple of str
         The cells, stripped of surrounding blanks (built on first use).
     lines : tuple of int
         Physical line number (from 1) of each row.
     """
 
-    def __init__(self, path: str, columns: tuple[str, ...], records: list[str], lines: Sequence[int]) -> None:
-        self.path = path
-        self.columns = columns
-        self._records = records
-        self._lines = np.asarray(lines, dtype=np.int64)
-        self._rows: tuple[tuple[str, ...], ...] | None = None
+    def __init__(
+        self, path: str, columns: tuple[str, ...], records: Sequence[str], lines: Sequence[int]
+    ) -> None:
+        self.path, self.columns = path, tuple(columns)
+        self._labels = dict(zip(self.columns, self.columns, strict=True))
+        self._dialect = Dialect(path, ",", ",", None)
+        self._blocks = [TableBlock.of(records, lines)] if len(records) else []
         self._numbers: dict[str, NDArray[np.float64]] = {}
         self._id_cells: list[str] | None = None
 
     @classmethod
-    def from_rows(
-        cls, path: str, columns: tuple[str, ...], rows: Sequence[Sequence[str]], lines: Sequence[int]
-    ) -> Table:
-        """A table of already split cells (e.g. an export read with another delimiter)."""
-        buffer = io.StringIO()
-        csv.writer(buffer, lineterminator="\n").writerows(rows)
-        return cls(path, columns, buffer.getvalue().splitlines(), lines)
+    def of_blocks(cls, path: str, columns: tuple[str, ...], labels: tuple[str, ...], dialect: Dialect,
+            blocks: list[TableBlock]) -> Table:  # fmt: skip
+        table = cls(path, columns, [], [])
+        table._labels = dict(zip(columns, labels, strict=True))
+        table._dialect, table._blocks = dialect, blocks
+        return table
 
     def __len__(self) -> int:
-        return len(self._records)
+        return sum(len(b) for b in self._blocks)
 
     @property
     def lines(self) -> tuple[int, ...]:
-        return tuple(self._lines.tolist())
+        return tuple(np.concatenate([b.lines for b in self._blocks]).tolist()) if self._blocks else ()
 
     @property
     def rows(self) -> tuple[tuple[str, ...], ...]:
-        if self._rows is None:
-            self._rows = tuple(
-                tuple(f.strip() for f in _split(self.path, int(n), r))
-                for r, n in zip(self._records, self._lines, strict=True)
-            )
-        return self._rows
+        return tuple(tuple(f.strip() for f in row) for b in self._blocks for row in self._cells(b))
 
     def line(self, k: int) -> int:
         """Physical line number of row ``k``."""
-        return int(self._lines[k])
+        for block in self._blocks:
+            if k < len(block):
+                return int(block.lines[k])
+            k -= len(block)
+        raise IndexError(k)
 
     def has(self, name: str) -> bool:
         return name in self.columns
 
-    def _block_columns(self, start: int, stop: int, ks: Sequence[int]) -> dict[int, list[str]]:
-        """The cells of columns ``ks`` in rows ``start:stop`` (each line split once)."""
-        block = self._records[start:stop]
-        joined = ",".join(block)
-        if '"' not in joined:  # every line has exactly len(columns) fields (checked when read)
-            flat = joined.split(",")
-            width = len(self.columns)
-            return {k: flat[k::width] for k in ks}
-        fields = [_split(self.path, self.line(start + i), r) for i, r in enumerate(block)]
-        return {k: [f[k] for f in fields] for k in ks}
+    def label(self, name: str) -> str:
+        """The file's own name of column ``name`` (the name itself without a column map)."""
+        return self._labels.get(name, name)
 
-    def numbers(self, names: Sequence[str]) -> NDArray[np.float64]:
+    def _cells(self, block: TableBlock) -> list[list[str]]:
+        """The fields of every row of a block (field counts checked, the first wrong one named)."""
+        d, width = self._dialect.delimiter, len(self.columns)
+        rows = block.text.split("\n")[:-1]
+        if '"' in block.text:
+            fields = [split_fields(self.path, int(n), r, d) for r, n in zip(rows, block.lines, strict=True)]
+        else:
+            fields = [r.split(d) for r in rows]
+        if not block.checked:
+            for row, n in zip(fields, block.lines, strict=True):
+                if len(row) != width:
+                    raise field_count_error(self.path, int(n), row, width, d)
+            block.checked = True
+        return fields
+
+    def numbers(self, names: Sequence[str], empty: bool = False) -> NDArray[np.float64]:
         """Numeric values of the named columns, shape ``(rows, len(names))``.
 
-        Columns are converted once (a block of rows at a time, each line split once for all
-        the columns asked together) and kept; ask for every column needed in one call.
+        Columns are converted once (a block of rows at a time, all the columns asked together)
+        and kept; ask for every column needed in one call. With ``empty``, an empty cell is
+        NaN (a value not measured) instead of an error.
         """
         for name in names:
             if name not in self.columns:
-                raise InputError(f"{self.path}: missing column '{name}'")
+                label = self.label(name)
+                extra = f" (the column map's {name})" if label != name else ""
+                raise InputError(f"{self.path}: missing column '{label}'{extra}")
         todo = [n for n in dict.fromkeys(names) if n not in self._numbers]
         if todo:
-            self._convert(todo)
+            self._convert(todo, empty)
         if not names:
             return np.empty((len(self), 0))
         return np.column_stack([self._numbers[n] for n in names])
 
-    def _convert(self, names: list[str]) -> None:
+    def _convert(self, names: list[str], empty: bool) -> None:
         idx = [self.columns.index(n) for n in names]
-        id_col = self.columns.index("id") if "id" in self.columns and self._id_cells is None else None
+        want_ids = "id" in self.columns and self._id_cells is None
         id_cells: list[str] = []
-        out = np.empty((len(self), len(names)))
-        for start in range(0, len(self), BLOCK_ROWS):
-            stop = min(start + BLOCK_ROWS, len(self))
-            values = out[start:stop]
-            fast = self._fast_block(start, stop, idx)
-            if fast is not None:
-                values[:] = fast
-                if id_col is not None:
-                    k = id_col
-                    id_cells.extend(r.split(",", k + 1)[k] for r in self._records[start:stop])
-                if np.all(np.isfinite(fast)):
-                    continue
-            cells = self._block_columns(start, stop, idx + ([id_col] if id_col is not None else []))
-            if id_col is not None and fast is None:
-                id_cells.extend(cells[id_col])
-            try:
-                for c, k in enumerate(idx):
-                    if "_" in "".join(cells[k]):  # float() accepts digit separators; a CSV number has none
-                        raise ValueError
-                    values[:, c] = np.array(cells[k], dtype=float)
-            except ValueError:
-                values[:] = self._locate(cells, start, idx, names)
-            bad = np.flatnonzero(~np.isfinite(values).ravel())
-            if bad.size:
-                r, c = divmod(int(bad[0]), len(idx))
-                raise InputError(
-                    f"{self.path}: line {self.line(start + r)}, column '{names[c]}': "
-                    f"{cells[idx[c]][r].strip()} is not a finite number"
+        parts = []
+        for block in self._blocks:
+            both = self._dialect.decimal is None and "," in block.text and "." in block.text
+            cells = self._cells(block) if both else None
+            self._dialect.decide(block.text, None if cells is None else [[r[k] for k in idx] for r in cells])
+            fast = None if empty else self._fast(block, idx, id_cells if want_ids else None)
+            if fast is None:
+                cells = self._cells(block) if cells is None else cells
+                fast = np.column_stack(
+                    [self._column([r[k] for r in cells], block, names[c], empty) for c, k in enumerate(idx)]
                 )
+                if want_ids:
+                    id_cells.extend(r[self.columns.index("id")] for r in cells)
+            parts.append(fast)
+        out = np.concatenate(parts) if parts else np.empty((0, len(names)))
         for c, name in enumerate(names):
             self._numbers[name] = out[:, c].copy()
-        if id_col is not None:
+        if want_ids:
             self._id_cells = id_cells
 
-    def _fast_block(self, start: int, stop: int, idx: list[int]) -> NDArray[np.float64] | None:
-        """The block's numbers by numpy's C parser, or None (quotes, or a cell it refuses).
+    def _fast(self, block: TableBlock, idx: list[int], ids: list[str] | None) -> NDArray[np.float64] | None:
+        """The block's numbers by numpy's C parser, or None (it refused something, or cannot judge).
 
-        ``np.loadtxt`` accepts a subset of what ``float`` accepts (no ``_``, no non-ASCII
-        digits) and rounds alike; a block it refuses goes the cell-by-cell way, which
-        decides and names the first bad cell.
+        ``np.loadtxt`` accepts a subset of what ``float`` accepts (no ``_``, no non-ASCII digits)
+        and rounds alike. The last column is always read (its text converted to 0 if not asked):
+        with the total count of delimiters, that proves every row has the header's fields.
         """
-        text = "\n".join(self._records[start:stop])
-        if '"' in text:
+        text, d, width = block.text, self._dialect.delimiter, len(self.columns)
+        if '"' in text or (self._dialect.decimal == "," and "." in text):
             return None
+        if self._dialect.decimal == ",":
+            text = text.replace(",", ".")
+        if not block.checked and text.count(d) != len(block) * (width - 1):
+            return None
+        use = sorted({*idx, width - 1})
+        converters = {k: (lambda s: 0.0) for k in use if k not in idx} or None  # text, not asked
         try:
-            values = np.loadtxt(
-                io.StringIO(text),
-                delimiter=",",
-                usecols=idx,
-                dtype=float,
-                comments=None,
-                quotechar=None,
-                ndmin=2,
-            )
+            values = np.loadtxt(io.StringIO(text), delimiter=d, usecols=use, converters=converters,
+                                dtype=float, comments=None, quotechar=None, ndmin=2)  # fmt: skip
         except ValueError:
             return None
-        return values.reshape(stop - start, len(idx))
+        if values.shape[0] != len(block) or not np.isfinite(values).all():
+            return None
+        block.checked = True
+        if ids is not None:  # the id cells from the lines (cheaper than a converter in loadtxt)
+            k = self.columns.index("id")
+            rows = block.text.split("\n")[:-1]
+            ids.extend([r.partition(d)[0] for r in rows] if k == 0 else [r.split(d, k + 1)[k] for r in rows])
+        return values[:, [use.index(k) for k in idx]]
 
-    def _locate(
-        self, cells: dict[int, list[str]], start: int, idx: list[int], names: Sequence[str]
-    ) -> NDArray[np.float64]:
-        """Convert a block cell by cell: the error of the first bad cell, in reading order."""
-        rows = len(cells[idx[0]])
-        out = np.empty((rows, len(idx)))
-        for r in range(rows):
-            for c, (k, name) in enumerate(zip(idx, names, strict=True)):
-                text = cells[k][r].strip()
-                try:
-                    if "_" in text:
-                        raise ValueError(text)
-                    value = float(text)
-                except ValueError:
-                    raise InputError(
-                        f"{self.path}: line {self.line(start + r)}, column '{name}': not a number: {text!r}"
-                    ) from None
-                if not np.isfinite(value):
-                    raise InputError(
-                        f"{self.path}: line {self.line(start + r)}, column '{name}': "
-                        f"{text} is not a finite number"
-                    )
-                out[r, c] = value
-        return out
+    def _column(self, cells: list[str], block: TableBlock, name: str, empty: bool) -> NDArray[np.float64]:
+        """One column converted cell by cell (numpy on the texts; on failure the first bad cell named)."""
+        cells = [c.strip() for c in cells]
+        mark = self._dialect.decimal or "."
+        joined = "\x1f".join(cells)
+        if "_" not in joined and (mark == "," or "," not in joined) and (mark == "." or "." not in joined):
+            texts = [c.replace(",", ".") for c in cells] if mark == "," else cells
+            blank = np.array([c == "" for c in cells]) if empty else np.zeros(len(cells), bool)
+            try:
+                values = np.array(["0" if b else t for t, b in zip(texts, blank, strict=True)], dtype=float)
+                values[blank] = np.nan
+                if np.all(np.isfinite(values) | blank):
+                    return values
+            except ValueError:
+                pass
+        for text, line in zip(cells, block.lines, strict=True):
+            if not (empty and text == ""):
+                self._cell(text, int(line), name, mark)
+        raise AssertionError("a cell was refused by numpy but not here")  # pragma: no cover
+
+    def _cell(self, text: str, line: int, name: str, mark: str) -> float:
+        where = f"{self.path}: line {line}, column '{self.label(name)}'"
+        if "," in text and "." in text:
+            raise InputError(f"{where}: {_shown(text)} has a thousands separator; remove it")
+        other = "," if mark == "." else "."
+        if other in text and NUMBER_TEXT.match(text):
+            if other == ",":
+                raise InputError(
+                    f"{where}: {_shown(text)} has a decimal comma, but the numbers of this file "
+                    "have decimal points (decimal=',', --decimal ',', reads decimal commas)"
+                )
+            raise InputError(
+                f"{where}: {_shown(text)} has a point, but the numbers of this file have "
+                "decimal commas (a thousands separator? remove it; decimal='.' reads points)"
+            )
+        try:
+            if "_" in text:
+                raise ValueError(text)
+            value = float(text.replace(",", ".") if mark == "," else text)
+        except ValueError:
+            raise InputError(f"{where}: not a number: {_shown(text)}") from None
+        if not np.isfinite(value):
+            raise InputError(f"{where}: {text} is not a finite number")
+        return value
+
+    def cells(self, name: str) -> list[str]:
+        """The text of column ``name``, cell by cell, stripped of surrounding blanks."""
+        if name == "id" and self._id_cells is not None:
+            return list(map(str.strip, self._id_cells))
+        k = self.columns.index(name)
+        return [row[k].strip() for b in self._blocks for row in self._cells(b)]
 
     def ids(self, seen: dict[str, int] | None = None, first: int = 1) -> tuple[str, ...]:
         """The ``id`` column, or the row numbers ``first, first + 1, ...`` when there is none.
 
-        ``seen`` (id -> line) carries the ids of earlier blocks of the same file.
+        ``seen`` (id -> line) carries ids of earlier rows of the same file, refused here.
         """
         if "id" not in self.columns:
             return tuple(str(first + k) for k in range(len(self)))
-        if self._id_cells is None:
-            k = self.columns.index("id")
-            self._id_cells = [
-                cell
-                for start in range(0, len(self), BLOCK_ROWS)
-                for cell in self._block_columns(start, min(start + BLOCK_ROWS, len(self)), [k])[k]
-            ]
-        ids = [c.strip() for c in self._id_cells]
-        known = {} if seen is None else seen
-        fresh = dict(zip(ids, self._lines.tolist(), strict=True))
-        clash = len(fresh) != len(ids) or not known.keys().isdisjoint(fresh)
-        if clash or "" in fresh or any(i[:1] == "#" for i in fresh):
-            self._id_error(ids, dict(known))
+        ids = self.cells("id")
+        repeated = len(set(ids)) != len(ids) or (seen is not None and not seen.keys().isdisjoint(ids))
+        if repeated or "" in ids or "\n#" in "\n" + "\n".join(ids):
+            self._id_error(ids, dict(seen or {}))
         if seen is not None:
-            seen.update(fresh)
+            seen.update(zip(ids, self.lines, strict=True))
         return tuple(ids)
 
     def _id_error(self, ids: list[str], seen: dict[str, int]) -> None:
         """Raise the error of the first bad id, in reading order."""
+        where = f"column '{self.label('id')}'"
         for k, value in enumerate(ids):
             line = self.line(k)
             if value == "":
-                raise InputError(f"{self.path}: line {line}, column 'id': empty id")
+                raise InputError(f"{self.path}: line {line}, {where}: empty id")
             if value.startswith("#"):
                 raise InputError(
-                    f"{self.path}: line {line}, column 'id': id {value!r} starts with '#', "
+                    f"{self.path}: line {line}, {where}: id {_shown(value)} starts with '#', "
                     "which marks comments; rename it"
                 )
             if value in seen:
                 raise InputError(
-                    f"{self.path}: line {line}, column 'id': id {value!r} repeats line {seen[value]}"
+                    f"{self.path}: line {line}, {where}: id {_shown(value)} repeats line {seen[value]}"
                 )
             seen[value] = line
 
 
-def _physical_lines(fh: IO[str]) -> Iterator[tuple[int, list[str], bool]]:
-    """Lines as ``str.splitlines`` gives them, read in chunks.
-
-    Yields ``(number of the first line, lines, whether the chunk has a double quote)``.
-    """
-    lineno = 1
-    rest = ""
-    while True:
-        chunk = fh.read(_CHUNK_CHARS)
-        if not chunk:
-            break
-        text = rest + chunk
-        parts = text.splitlines()
-        rest = ""
-        if text[-1] == "\r":  # may be the first half of \r\n
-            rest = parts.pop() + "\r"
-        elif text.splitlines(keepends=True)[-1] == parts[-1]:  # no line break at the end
-            rest = parts.pop()
-        if parts:
-            yield lineno, parts, '"' in text
-            lineno += len(parts)
-    if rest:
-        yield lineno, rest.splitlines(), '"' in rest
+def split_fields(path: str, lineno: int, line: str, delimiter: str) -> list[str]:
+    """The fields of one line (the csv module only when the line has quotes)."""
+    if '"' not in line:
+        return line.split(delimiter)
+    try:
+        return next(csv.reader([line], delimiter=delimiter))
+    except csv.Error as exc:
+        if "field limit" in str(exc):
+            raise InputError(f"{path}: line {lineno}: a field over {MAX_FIELD_CHARS:,} characters") from None
+        raise InputError(f"{path}: line {lineno}: cannot read the fields ({exc})") from None
 
 
-class _Scanner:
-    """The header and the data records of one CSV file (comments and blank lines skipped)."""
-
-    def __init__(self, path: str | os.PathLike[str]) -> None:
-        self.path = os.fspath(path)
-        self.header: tuple[str, ...] | None = None
-        self.header_line = 0
-
-    def records(self) -> Iterator[tuple[list[str], list[int]]]:
-        """Data lines and their numbers, a chunk of the file at a time."""
-        name = self.path
-        try:
-            with open_input(name, encoding="utf-8-sig") as fh:
-                for first, parts, quoted in _physical_lines(fh):
-                    if first == 1 and parts[0].startswith(_BOM):
-                        parts[0] = parts[0].lstrip(_BOM)
-                        warnings.warn(
-                            f"{name}: line 1 starts with a second byte order mark (U+FEFF); ignored",
-                            InputWarning,
-                            stacklevel=4,
-                        )
-                    if self.header is not None and not quoted:
-                        fast = self._plain(first, parts)
-                        if fast is not None:
-                            yield fast
-                            continue
-                    yield self._slow(first, parts)
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InputError(f"{name}: cannot read: {exc}") from None
-        if self.header is None:
-            raise InputError(f"{name}: empty file (no header row)")
-
-    def _plain(self, first: int, parts: list[str]) -> tuple[list[str], list[int]] | None:
-        """A chunk of data lines only, without quotes (the common case), or None."""
-        assert self.header is not None
-        commas = len(self.header) - 1
-        if not all(p[:1] not in ("", "#") and not p[0].isspace() and p.count(",") == commas for p in parts):
-            return None
-        return parts, list(range(first, first + len(parts)))
-
-    def _slow(self, first: int, parts: list[str]) -> tuple[list[str], list[int]]:
-        name = self.path
-        records, numbers = [], []
-        for lineno, line in enumerate(parts, start=first):
-            if not line.strip() or line.lstrip().startswith("#"):
-                continue
-            if self.header is None:
-                self._set_header(lineno, line)
-                continue
-            n = len(_split(name, lineno, line)) if '"' in line else line.count(",") + 1
-            if n != len(self.header):
-                raise InputError(f"{name}: line {lineno}: {n} fields, but the header has {len(self.header)}")
-            records.append(line)
-            numbers.append(lineno)
-        return records, numbers
-
-    def _set_header(self, lineno: int, line: str) -> None:
-        name = self.path
-        header = tuple(f.strip() for f in _split(name, lineno, line))
-        for k, col in enumerate(header):
-            if col == "":
-                raise InputError(f"{name}: line {lineno}: column {k + 1} of the header has no name")
-            if _BOM in col:
-                raise InputError(f"{name}: line {lineno}: column {k + 1} of the header holds a U+FEFF mark")
-            if col in header[:k]:
-                raise InputError(f"{name}: line {lineno}: column '{col}' appears twice in the header")
-        self.header, self.header_line = header, lineno
-
-
-def read_table(path: str | os.PathLike[str], max_rows: int | None = DEFAULT_MAX_ROWS) -> Table:
-    """Read a whole CSV table with a header row (rules in the module docstring).
-
-    Parameters
-    ----------
-    path : str or path-like
-        A regular file.
-    max_rows : int or None
-        More rows are refused before they are converted (``None``: no limit; ``--max-rows``
-        replaces it, :func:`~hexcal.io.inputs.row_limit`)."""
-    max_rows = row_limit(max_rows)
-    scanner = _Scanner(path)
-    records: list[str] = []
-    lines: list[int] = []
-    for chunk, numbers in scanner.records():
-        records.extend(chunk)
-        lines.extend(numbers)
-        if max_rows is not None and len(records) > max_rows:
-            raise too_many_rows(scanner.path, max_rows)
-    assert scanner.header is not None
-    if not records:
-        raise InputError(f"{scanner.path}: the header has no data rows")
-    return Table(scanner.path, scanner.header, records, lines)
-
-
-def iter_tables(path: str | os.PathLike[str], block_rows: int = BLOCK_ROWS) -> Iterator[Table]:
-    """The rows of a CSV table in blocks of ``block_rows`` (memory bounded by one block).
-
-    Every block is a :class:`Table` with the same columns; a file without data rows is
-    refused (after reading it). Errors name the file and the physical line, as
-    :func:`read_table` does.
-    """
-    if block_rows < 1:
-        raise ValueError(f"block_rows must be >= 1, got {block_rows}")
-    scanner = _Scanner(path)
-    records: list[str] = []
-    lines: list[int] = []
-    count = 0
-    for chunk, numbers in scanner.records():
-        records.extend(chunk)
-        lines.extend(numbers)
-        while len(records) >= block_rows:
-            assert scanner.header is not None
-            count += block_rows
-            yield Table(scanner.path, scanner.header, records[:block_rows], lines[:block_rows])
-            records, lines = records[block_rows:], lines[block_rows:]
-    assert scanner.header is not None
-    if records:
-        count += len(records)
-        yield Table(scanner.path, scanner.header, records, lines)
-    if count == 0:
-        raise InputError(f"{scanner.path}: the header has no data rows")
-
-
-def read_matrix(path: str | os.PathLike[str], shape: tuple[int, int]) -> NDArray[np.float64]:
-    """A small numeric matrix: rows of numbers separated by commas or blanks; ``#`` comments."""
-    name = str(path)
-    lines = read_text(path, max_bytes=1 << 20).splitlines()
-    rows = []
-    for lineno, line in enumerate(lines, start=1):
-        text = line.split("#", 1)[0].replace(",", " ").split()
-        if not text:
-            continue
-        try:
-            if any("_" in v for v in text):  # float() accepts digit separators
-                raise ValueError
-            values = [float(v) for v in text]
-        except ValueError:
-            raise InputError(f"{name}: line {lineno}: not a row of numbers: {line.strip()!r}") from None
-        if len(values) != shape[1]:
-            raise InputError(f"{name}: line {lineno}: {len(values)} numbers, expected {shape[1]}")
-        if not all(np.isfinite(v) for v in values):
-            raise InputError(f"{name}: line {lineno}: NaN or inf")
-        rows.append(values)
-    if len(rows) != shape[0]:
-        raise InputError(f"{name}: {len(rows)} rows, expected {shape[0]}")
-    return np.array(rows)
-
-
-# writing lives in its own module; these names stay importable from here
-from hexcal.io.table_writing import TableWriter, write_table, write_table_blocks  # noqa: E402
-
-__all__ = [
-    "BLOCK_ROWS",
-    "Table",
-    "TableWriter",
-    "iter_tables",
-    "read_matrix",
-    "read_table",
-    "write_table",
-    "write_table_blocks",
-]
+def field_count_error(path: str, lineno: int, row: list[str], width: int, delimiter: str) -> InputError:
+    hint = ""
+    if (
+        delimiter == ","
+        and len(row) > width
+        and any(
+            re.match(r"^[+-]?\d*$", x.strip()) and re.match(r"^\d+([.eE]\S*)?$", y.strip())
+            for x, y in itertools.pairwise(row)
+        )
+    ):
+        hint = " (decimal commas in a comma-separated file, or thousands separators? export with ';')"
+    return InputError(f"{path}: line {lineno}: {len(row)} fields, but the header has {width}{hint}")

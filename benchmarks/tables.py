@@ -1,0 +1,228 @@
+"""The table paths of ``ik``, ``fk`` and ``compensate`` on 10^6 rows (issue 20, item 4).
+
+``python benchmarks/tables.py [--rows N] [--compare SRC] [--repeats R]`` writes a pose file
+of N random workspace poses with ids (default 1,000,000) and times, each as a subprocess of
+this interpreter (``python -m hexcal``, start-up included):
+
+- ``hexcal ik --geometry paper-hmt --poses poses.csv --out legs.csv``;
+- ``hexcal fk --geometry paper-hmt --legs legs.csv --out back.csv`` (ik's output: ``l1..l6``
+  and ``dl1..dl6`` with ids);
+- ``hexcal compensate --geometry paper-hmt-true --poses poses.csv --out commands.csv
+  --skip-infeasible``;
+
+and, in a fresh subprocess of the same source tree, the kinematics each command computes,
+alone, on arrays already in memory and in the command's own blocks (``ik``: inverse
+kinematics, the feasibility check and the readings per block of :data:`~hexcal.io.BLOCK_ROWS`
+rows; ``fk``: the readings' lengths, the leg limits, the first Newton step from the home
+pose and the Newton iteration per block; ``compensate``: :func:`hexcal.core.compensate` of
+all the targets). For every command it prints the wall and CPU seconds end to end, the CPU
+seconds of the kinematics alone, the file path (end to end minus the kinematics, CPU, start-up
+included), the ratio end to end / kinematics (the file paths' cost in units of the machine's
+own speed), and the CPU seconds of the command's reading and writing alone, in process (its
+readers and writers on the same files, the kinematics replaced by a copy of a column): the
+figure that the kinematics' own variation from run to run does not blur.
+
+``--compare SRC`` times another source tree (``PYTHONPATH=SRC``, e.g. the base commit
+extracted with ``git archive``) in the same run, each figure alternating between the two
+trees (``--repeats`` rounds, default 2, the best of each kept), and prints the speed-ups
+old / new: of the wall time, of the file path's CPU time, of the ratio and of the files alone. On a shared
+machine every figure moves by tens of per cent from run to run: read the load average
+printed before and after, and judge the speed-ups, not the seconds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+#: The kinematics of each command, alone, on arrays in memory (run in a child process).
+KINEMATICS = r"""
+import json, sys, time
+import numpy as np
+from hexcal.core import (compensate, forward_kinematics, inverse_kinematics, is_feasible,
+    leg_lengths, leg_limit_violations, leg_readings, pose_jacobian_from_arrays)
+from hexcal.core.presets import preset
+from hexcal.io import BLOCK_ROWS
+
+n = int(sys.argv[1])
+low = np.array([-250, -250, 700, -0.17, -0.17, -0.17])
+poses = np.random.default_rng(0).uniform(low, -low * [1, 1, -9 / 7, 1, 1, 1], (n, 6))
+g = preset("paper-hmt")
+ids = tuple(f"p{k}" for k in range(n))
+out = {}
+
+start = time.process_time()
+readings = []
+for k in range(0, n, BLOCK_ROWS):
+    block = poses[k : k + BLOCK_ROWS]
+    lengths = inverse_kinematics(g, block)
+    is_feasible(g, block, margin=1e-6)
+    readings.append(leg_readings(g, lengths))
+out["ik"] = time.process_time() - start
+readings = np.concatenate(readings)
+
+start = time.process_time()
+home_lengths, home_jacobian = pose_jacobian_from_arrays(
+    g.base_joints, g.platform_joints, g.home_pose, g.euler
+)
+step = np.linalg.inv(home_jacobian)
+for k in range(0, n, BLOCK_ROWS):
+    lengths = leg_lengths(g, readings[k : k + BLOCK_ROWS])
+    leg_limit_violations(g, lengths)
+    forward_kinematics(g, lengths, guess=g.home_pose + (lengths - home_lengths) @ step.T)
+out["fk"] = time.process_time() - start
+
+start = time.process_time()
+compensate(preset("paper-hmt-true"), poses, ids)
+out["compensate"] = time.process_time() - start
+print(json.dumps(out))
+"""
+
+#: The table path of each command alone (its reading and writing, no kinematics, in process).
+FILES = r"""
+import json, sys, time
+import numpy as np
+from hexcal.io import OutputSet, iter_legs, iter_poses, read_poses, write_legs, write_table_blocks
+
+out = {}
+def timed(name, work):
+    start = time.process_time()
+    with OutputSet([name + ".out.csv"]) as outputs:
+        work(name + ".out.csv", outputs)
+    out[name] = time.process_time() - start
+
+def ik(path, outputs):
+    blocks = ((np.tile(p[:, :1], 12) + 600.0, ids) for p, ids in iter_poses("poses.csv", "XYZ"))
+    write_table_blocks(path, [f"c{k}" for k in range(12)], blocks, outputs=outputs)
+
+def fk(path, outputs):
+    blocks = ((np.tile(b.readings[:, :1], 6), b.ids) for b in iter_legs("legs.csv"))
+    write_table_blocks(path, list("xyzabc"), blocks, outputs=outputs)
+
+def compensate(path, outputs):
+    poses, ids = read_poses("poses.csv", "XYZ")
+    write_legs(path, poses[:, [0] * 6] + 600.0, poses[:, [1] * 6], ids, outputs=outputs)
+
+for name, work in (("ik", ik), ("fk", fk), ("compensate", compensate)):
+    timed(name, work)
+print(json.dumps(out))
+"""
+
+#: Writes the pose file with the tree's own writer (the same file for every tree compared).
+MAKE = r"""
+import sys
+import numpy as np
+from hexcal.io import write_poses
+
+n = int(sys.argv[2])
+low = np.array([-250, -250, 700, -0.17, -0.17, -0.17])
+poses = np.random.default_rng(0).uniform(low, -low * [1, 1, -9 / 7, 1, 1, 1], (n, 6))
+write_poses(sys.argv[1], poses, ids=[f"p{k}" for k in range(n)])
+write_poses(sys.argv[1] + ".one", poses[:1], ids=["p0"])
+"""
+
+
+def _env(src: str | None) -> dict[str, str]:
+    env = dict(os.environ)
+    if src:
+        env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    return env
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _timed(argv: list[str], env: dict[str, str], cwd: str) -> tuple[float, float, str]:
+    """Wall and CPU seconds of one subprocess, and its standard output."""
+    cpu0, start = _children_cpu(), time.perf_counter()
+    done = subprocess.run(argv, env=env, cwd=cwd, capture_output=True, text=True)
+    wall, cpu = time.perf_counter() - start, _children_cpu() - cpu0
+    if done.returncode != 0:
+        raise SystemExit(f"{' '.join(argv)} failed: {done.stderr.strip()}")
+    return wall, cpu, done.stdout
+
+
+COMMANDS = {
+    "ik": ["ik", "--geometry", "paper-hmt", "--poses", "poses.csv", "--out", "legs.csv"],
+    "fk": ["fk", "--geometry", "paper-hmt", "--legs", "legs.csv", "--out", "back.csv"],
+    "compensate": [
+        *("compensate", "--geometry", "paper-hmt-true", "--poses", "poses.csv"),
+        *("--out", "commands.csv", "--skip-infeasible"),
+    ],
+}
+
+
+def measure(src: str | None, rows: int, folder: Path, best: dict[str, dict[str, float]]) -> None:
+    """One round of every figure of one source tree (``None``: the installed hexcal), kept in ``best``."""
+    env, cwd = _env(src), str(folder)
+    hexcal = [sys.executable, "-m", "hexcal"]
+    one = ["ik", "--geometry", "paper-hmt", "--poses", "poses.csv.one", "--out", "one.csv"]
+    figures = {"start-up": dict(zip(("wall", "cpu"), _timed(hexcal + one, env, cwd)[:2], strict=True))}
+    for name, args in COMMANDS.items():
+        wall, cpu, _ = _timed(hexcal + args, env, cwd)
+        figures[name] = {"wall": wall, "cpu": cpu}
+    _, _, text = _timed([sys.executable, "-c", KINEMATICS, str(rows)], env, cwd)
+    for name, seconds in json.loads(text.strip().splitlines()[-1]).items():
+        figures[name]["kinematics"] = seconds
+    _, _, text = _timed([sys.executable, "-c", FILES], env, cwd)
+    for name, seconds in json.loads(text.strip().splitlines()[-1]).items():
+        figures[name]["files"] = seconds
+    for name, values in figures.items():
+        kept = best.setdefault(name, {})
+        for key, value in values.items():
+            kept[key] = min(kept.get(key, float("inf")), value)
+
+
+def report(label: str, figures: dict[str, dict[str, float]]) -> None:
+    print(f"{label}: start-up of hexcal ik (one row) {figures['start-up']['wall']:.2f} s")
+    for name in COMMANDS:
+        f = figures[name]
+        print(
+            f"  {name:<10} end to end {f['wall']:6.2f} s wall ({f['cpu']:5.2f} s CPU), kinematics alone "
+            f"{f['kinematics']:5.2f} s CPU, file path {f['cpu'] - f['kinematics']:5.2f} s CPU: "
+            f"ratio {f['cpu'] / f['kinematics']:5.1f}; its files alone {f['files']:5.2f} s CPU"
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rows", type=int, default=1_000_000)
+    parser.add_argument("--repeats", type=int, default=2, help="rounds; the best of each figure is kept")
+    parser.add_argument("--compare", metavar="SRC", help="another source tree to time in the same run")
+    args = parser.parse_args()
+    print(f"{args.rows:,} rows; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        subprocess.run([sys.executable, "-c", MAKE, str(folder / "poses.csv"), str(args.rows)], check=True)
+        new: dict[str, dict[str, float]] = {}
+        old: dict[str, dict[str, float]] = {}
+        for _ in range(args.repeats):  # the trees alternate, so that a change of load hits both
+            measure(None, args.rows, folder, new)
+            if args.compare:
+                measure(os.path.abspath(args.compare), args.rows, folder, old)
+        report("this tree", new)
+        if args.compare:
+            report(f"compared tree {args.compare}", old)
+            for name in COMMANDS:
+                o, n = old[name], new[name]
+                path = (o["cpu"] - o["kinematics"]) / (n["cpu"] - n["kinematics"])
+                ratio = (o["cpu"] / o["kinematics"]) / (n["cpu"] / n["kinematics"])
+                print(
+                    f"  {name:<10} speed-up {o['wall'] / n['wall']:4.1f}x end to end (wall), "
+                    f"{path:4.1f}x in the file path (CPU), {ratio:4.1f}x in the ratio, "
+                    f"{o['files'] / n['files']:4.1f}x in the files alone (CPU)"
+                )
+    print(f"load average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+
+
+if __name__ == "__main__":
+    main()
