@@ -26,12 +26,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from browser_support import CHROMIUM_ARGS, chromium_path
+from hexcal.calibration import estimate
 from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses
-from hexcal.calibration import estimate
 from hexcal.instruments.pose import Measurements
-from hexcal.report.html_reports import identification_report, render_html
+from hexcal.report import identification_report, render_html
 from hexcal.simulation import simulate_measurements
 
 SEED = 20261130
@@ -49,7 +49,7 @@ def build(n: int, folder: Path) -> tuple[Path, float]:
     result = estimate(nominal, data, "ml", noise=NOISE, robust=True)
     fit = time.perf_counter() - start
     start = time.perf_counter()
-    text = render_html(identification_report(result, data, {"hexcal": "benchmark", "poses": n}))
+    text = render_html(identification_report(result, {"hexcal": "benchmark", "poses": n}))
     built = time.perf_counter() - start
     path = folder / f"identify-{n}.html"
     path.write_text(text, encoding="utf-8")

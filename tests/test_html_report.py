@@ -20,7 +20,7 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import workspace_corners
 from hexcal.instruments.pose import Measurements
-from hexcal.report.html_reports import identification_report, render_html, validation_report
+from hexcal.report import identification_report, render_html, validation_report
 from hexcal.simulation import simulate_measurements
 
 NOMINAL, TRUE = preset("paper-hmt"), preset("paper-hmt-true")
@@ -40,7 +40,7 @@ def identify_page(tmp_path_factory: pytest.TempPathFactory, data: Measurements) 
     result = estimate(NOMINAL, data, "ml", robust=True)
     inputs = {"files": [{"role": "data", "path": "measured.csv", "sha256": "0" * 64}], "hexcal": "test"}
     path = tmp_path_factory.mktemp("html") / "identify.html"
-    path.write_text(render_html(identification_report(result, data, inputs)), encoding="utf-8")
+    path.write_text(render_html(identification_report(result, inputs)), encoding="utf-8")
     return path
 
 
@@ -72,7 +72,7 @@ def test_identify_page_in_the_browser(browser, identify_page: Path) -> None:  # 
         def column() -> np.ndarray:
             return np.array(
                 page.eval_on_selector_all(
-                    "#parameters tbody tr td:nth-child(4)",
+                    "#parameters tbody tr td:nth-child(5)",  # parameter, unit, nominal, identified, change
                     "cells => cells.map(c => parseFloat(c.dataset.value))",
                 )
             )
