@@ -52,8 +52,8 @@ IDENTIFICATION_CAPTIONS = {
 
 VALIDATION_CAPTIONS = {
     "pose_errors": "Position (mm) and orientation (mrad) error of every held-out pose, per geometry.",
-    "distributions": "Distribution of the held-out pose errors per geometry (logarithmic bins when the "
-    "errors span more than a decade, so both geometries show their shape).",
+    "distributions": "Distribution of the held-out pose errors per geometry (when they span more than a "
+    "decade: a logarithmic axis, each geometry with its own logarithmic bins, so both show their shape).",
 }
 
 #: At most this many rows in a per-pose table (the worst poses; a note says so).

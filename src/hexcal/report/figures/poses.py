@@ -234,9 +234,10 @@ def plot_validation_errors(data: Mapping[str, Any], path: str | os.PathLike[str]
 
 
 def validation_distributions(errors: Mapping[str, Mapping[str, Any]]) -> Any:
-    """Histograms of the held-out position and orientation errors, each geometry visible:
-    logarithmic bins (shared, so the shapes compare) when the errors span more than a decade,
-    so that millimetres before calibration and micrometres after both show their shape."""
+    """Histograms of the held-out position and orientation errors, every geometry's shape
+    visible: when the errors span more than a decade (millimetres before calibration,
+    micrometres after), a logarithmic axis with each geometry's own logarithmic bins, where
+    shared linear bins would put the calibrated errors into one bar."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.9), constrained_layout=True)
     for ax, key, scale, label in (
         (axes[0], "position_error", 1.0, "position error (mm)"),
@@ -248,16 +249,21 @@ def validation_distributions(errors: Mapping[str, Mapping[str, Any]]) -> Any:
         positive = finite[finite > 0]
         logarithmic = positive.size > 1 and positive.max() > 10 * positive.min()
         if logarithmic:
-            bins = np.geomspace(positive.min() * 0.95, positive.max() * 1.05, 41)
             ax.set_xscale("log")
             log_ticks(ax, "x")
         else:
             top = float(finite.max()) if finite.size else 1.0
-            bins = np.linspace(0, top * 1.02 if top > 0 else 1.0, 30)
+            shared = np.linspace(0, top * 1.02 if top > 0 else 1.0, 30)
         for name, values, style in zip(errors, data, ("-", "--", ":"), strict=False):
-            shown = np.clip(values, bins[0], bins[-1]) if logarithmic else values
-            ax.hist(shown, bins=bins, histtype="step", ls=style, lw=1.5, label=plain(name))
-        ax.set_xlabel(label + (", log bins" if logarithmic else ""))
+            if logarithmic:
+                values = np.maximum(values, positive.min())  # an exact 0 at the smallest error shown
+                count = int(np.clip(2 * np.sqrt(values.size), 6, 30)) if values.size else 1
+                lo, hi = (float(values.min()), float(values.max())) if values.size else (1.0, 1.0)
+                bins = np.geomspace(lo * 0.97, hi * 1.03, count + 1)
+            else:
+                bins = shared
+            ax.hist(values, bins=bins, histtype="step", ls=style, lw=1.5, label=plain(name))
+        ax.set_xlabel(label + (", logarithmic bins" if logarithmic else ""))
         ax.set_ylabel("poses")
         ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     legend_outside(axes[1])

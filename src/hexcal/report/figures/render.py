@@ -100,7 +100,7 @@ def round_levels(lo: float, hi: float, count: int = 12) -> Any:
     """
     if not hi > lo:
         hi = lo + max(abs(lo) * 1e-6, 1e-12)
-    return MaxNLocator(count).tick_values(lo, hi)
+    return MaxNLocator(count, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
 
 
 def trials_phrase(trials: int) -> str:
