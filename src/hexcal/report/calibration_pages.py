@@ -236,12 +236,19 @@ def _sessions_section(result: Mapping[str, Any]) -> str:
         )
     else:
         parts.append("<p><strong>Gauge freedoms</strong>: none.</p>")
-    for s in sessions:
+    for k, s in enumerate(sessions):
         rows = setup_rows(s)
         held = [n for n in s["setup"] if n not in s["varied"]]
         if rows:
             parts.append(f"<h3>Calibrated setup: {esc(s['label'])}</h3>")
-            parts.append(data_table(("quantity", "value", "std. error", "unit"), rows, sortable=False))
+            parts.append(
+                data_table(
+                    ("quantity", "value", "std. error", "unit"),
+                    rows,
+                    sortable=False,
+                    table_id=f"setup-{k + 1}",
+                )
+            )
             if held:
                 parts.append(f'<p class="muted">Held exactly: {esc(", ".join(held))}.</p>')
         elif held:
@@ -370,7 +377,8 @@ def validation_page(report: Mapping[str, Any]) -> str:
     (orientation errors in mrad in the tables as in the figures)."""
     results = report.get("results", {})
     columns = ("", *results)
-    sections = [section("Summary", data_table(columns, summary_rows(results), sortable=False), "summary")]
+    summary = data_table(columns, summary_rows(results), sortable=False, table_id="summary-table")
+    sections = [section("Summary", summary, "summary")]
     first = next(iter(results.values()), None)
     if first is not None:
         per_pose = [
