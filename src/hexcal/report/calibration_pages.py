@@ -52,8 +52,8 @@ IDENTIFICATION_CAPTIONS = {
 
 VALIDATION_CAPTIONS = {
     "pose_errors": "Position (mm) and orientation (mrad) error of every held-out pose, per geometry.",
-    "distributions": "Distribution of the held-out pose errors per geometry (when they span more than a "
-    "decade: a logarithmic axis, each geometry with its own logarithmic bins, so both show their shape).",
+    "distributions": "Distribution of the held-out pose errors per geometry (geometries a decade or more "
+    "apart: a logarithmic axis, each geometry with its own logarithmic bins, so both show their shape).",
 }
 
 #: At most this many rows in a per-pose table (the worst poses; a note says so).
@@ -171,7 +171,7 @@ def noise_rows(result: Mapping[str, Any]) -> tuple[list[str], list[tuple[Any, ..
             verdict = "disagrees" if c.get("disagrees") else "agrees"
             rows.append((group, given, data, unit_shown, fmt(c["ratio"], 3), fmt(c["p_value"], 2), verdict))
         columns = ["group", "given σ", "σ the data show", "unit", "ratio", "p-value", "the data"]
-        return columns, rows, f"Given with --noise ({dist}), as standard deviations, tested against the data."
+        return columns, rows, f"Given, not learned ({dist}), as standard deviations; tested against the data."
     rows = []
     for s in result.get("sessions") or [{"label": "", "noise": noise}]:
         for group, unit in (("leg", "mm"), ("position", "mm"), ("orientation", "rad")):

@@ -64,6 +64,9 @@ def study_figure(rows: Sequence[Any], note_text: str = "") -> Any:
             alpha=0.7,
         )
     ax.plot([], [], color="0.3", ls=(0, (1, 2)), lw=1, label=BOUND_LABEL)
+    counts = sorted({r["poses"] for r in rows})
+    if len(counts) <= 12:
+        ax.set_xticks(counts)  # the pose counts of the study, not 16, 18, ... between them
     ax.set_xlabel("number of measurement poses")
     ax.set_ylabel("mean absolute parameter error (mm)")
     ax.set_yscale("log")

@@ -76,8 +76,12 @@ def error_angles_figure(angle_map: Any, note_text: str = "") -> Any:
             ax = axes[row, col]
             filled = ax.contourf(v1, v2, values[k].T, levels=bounds, cmap="viridis")
             # labelled contours of the panel itself: the variation within one z level
-            lines = ax.contour(v1, v2, values[k].T, levels=5, colors="white", linewidths=0.6)
-            ax.clabel(lines, fontsize=7, fmt="%.3g")
+            own = round_levels(float(np.min(values[k])), float(np.max(values[k])), 5)
+            inside = own[(own > np.min(values[k])) & (own < np.max(values[k]))]
+            lines = ax.contour(
+                v1, v2, values[k].T, levels=inside if inside.size else 5, colors="white", linewidths=0.6
+            )
+            ax.clabel(lines, fontsize=7, fmt="%g")
             ax.set_xlabel(f"{angle_map.axes[0]} (deg)")
             ax.set_ylabel(f"{angle_map.axes[1]} (deg)")
             ax.set_title(f"z = {angle_map.levels[k]:g} mm")

@@ -235,9 +235,9 @@ def plot_validation_errors(data: Mapping[str, Any], path: str | os.PathLike[str]
 
 def validation_distributions(errors: Mapping[str, Mapping[str, Any]]) -> Any:
     """Histograms of the held-out position and orientation errors, every geometry's shape
-    visible: when the errors span more than a decade (millimetres before calibration,
-    micrometres after), a logarithmic axis with each geometry's own logarithmic bins, where
-    shared linear bins would put the calibrated errors into one bar."""
+    visible: when the geometries' errors are a decade or more apart (millimetres before
+    calibration, micrometres after), a logarithmic axis with each geometry's own logarithmic
+    bins, where shared linear bins would put the calibrated errors into one bar."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.9), constrained_layout=True)
     for ax, key, scale, label in (
         (axes[0], "position_error", 1.0, "position error (mm)"),
@@ -247,7 +247,9 @@ def validation_distributions(errors: Mapping[str, Mapping[str, Any]]) -> Any:
         data = [d[np.isfinite(d)] for d in data]
         finite = np.concatenate(data) if data else np.zeros(0)
         positive = finite[finite > 0]
-        logarithmic = positive.size > 1 and positive.max() > 10 * positive.min()
+        medians = [float(np.median(d[d > 0])) for d in data if (d > 0).any()]
+        # geometries a decade or more apart (before and after calibration): log axis
+        logarithmic = len(medians) > 1 and max(medians) > 10 * min(medians)
         if logarithmic:
             ax.set_xscale("log")
             log_ticks(ax, "x")
