@@ -295,8 +295,13 @@ def test_a_dollar_in_a_geometry_name_and_one_pose_count(tmp_path: Path) -> None:
     page = (tmp_path / "sim.html").read_text(encoding="utf-8")
     assert "true machine rig $\\foo$ &lt;b&gt;" in page and "<b>" not in page
     assert "Calibration campaigns of 15 poses" in page
+    conditions = {row[0]: row[1] for row in tables(tmp_path / "sim.html")["conditions"][1:]}
+    assert conditions["true machine"] == "rig $\\foo$ <b>"  # text, as typed
+    assert conditions["noise: leg"] == "σ 0.005774 mm" and conditions["noise: orientation"].endswith("rad")
     assert (tmp_path / "sim" / "study.png").stat().st_size > 10_000
     run("paper", *common, "--out", tmp_path / "paper", "--html", tmp_path / "paper.html")
+    conditions = {row[0]: row[1] for row in tables(tmp_path / "paper.html")["conditions"][1:]}
+    assert conditions["noise: position"] == "uniform ±0.025 mm, σ 0.01443 mm" and conditions["trials"] == "2"
     figure = re.search(
         r'data-figure="fig11_validation_errors".*?</figure>', (tmp_path / "paper.html").read_text(), re.S
     )

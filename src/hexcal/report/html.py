@@ -333,18 +333,24 @@ def tables_page(report: Mapping[str, Any]) -> str:
     ``observability``).
 
     ``report["tables"]`` maps a title to ``{"columns": [...], "rows": [[...], ...]}`` (and
-    an optional ``"note"``, text below the table); an optional ``report["text"]`` is shown
+    an optional ``"note"``, text below the table, and ``"sortable": False`` for a table of
+    labelled values); an optional ``report["text"]`` is shown
     preformatted (the command's text table, folded); the figures come after the tables, or
     first with ``report["figures_first"]``; ``report["wide"]`` names figures that span the row.
     """
     sections = []
     for title, table in report.get("tables", {}).items():
+        sortable = table.get("sortable", True)
         body = data_table(
-            table["columns"], table["rows"], table_id=slug(title), scroll=len(table["rows"]) > 20
+            table["columns"],
+            table["rows"],
+            sortable=sortable,
+            table_id=slug(title),
+            scroll=len(table["rows"]) > 20,
         )
         extra = f'<p class="muted">{esc(table["note"])}</p>' if table.get("note") else ""
-        sortable = '<p class="muted">Click a column to sort.</p>' if len(table["rows"]) > 3 else ""
-        sections.append(section(title, body + extra + sortable, f"{slug(title)}-section"))
+        hint = '<p class="muted">Click a column to sort.</p>' if sortable and len(table["rows"]) > 3 else ""
+        sections.append(section(title, body + extra + hint, f"{slug(title)}-section"))
     figures = report.get("figures", {})
     if figures:
         grid = figure_grid(figures, report.get("captions", {}), report.get("wide", ()))

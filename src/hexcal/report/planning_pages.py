@@ -62,6 +62,7 @@ def noise_table(noise: Mapping[str, Any] | None) -> dict[str, Any]:
     return {
         "columns": ["group", f"as given ({dist})", "standard deviation σ", "unit"],
         "rows": rows,
+        "sortable": False,
         "note": "The noise of the measurements the prediction assumes (--noise, --noise-dist).",
     }
 
@@ -92,7 +93,7 @@ def observability_report(
         for name, v in data.get("parameters", {}).items()
     ]
     tables = {
-        "Observability indices": {"columns": ["index", "value"], "rows": indices},
+        "Observability indices": {"columns": ["index", "value"], "rows": indices, "sortable": False},
         "Noise assumed": noise_table(data.get("noise")),
         "Predicted accuracy": {"columns": ["quantity", "estimator", "Cramér–Rao bound"], "rows": accuracy},
         "Predicted standard deviation per parameter": {
@@ -170,7 +171,7 @@ def selection_report(
     angles = np.rad2deg(p[:, 3:])
     rows = [(pid, *p[k, :3].tolist(), *angles[k].tolist()) for k, pid in enumerate(data.get("ids", []))]
     tables = {
-        "Selection": {"columns": ["", "value"], "rows": selection_rows(data)},
+        "Selection": {"columns": ["", "value"], "rows": selection_rows(data), "sortable": False},
         "Predicted mean absolute parameter error (mm)": {
             "columns": ["poses", f"identify (method {method})", "Cramér–Rao bound"],
             "rows": predicted,

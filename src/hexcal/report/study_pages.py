@@ -28,6 +28,40 @@ def study_note(study: Mapping[str, Any]) -> str:
     return paper_note(study)
 
 
+def conditions_table(summary: Mapping[str, Any]) -> dict[str, Any]:
+    """The conditions of a study as labelled rows: the machines, the noise (as given and as
+    standard deviations, one row per group), trials, seed."""
+    noise = summary.get("noise")
+    sigmas = (
+        summary.get("noise_sigmas") or (noise.get("sigmas") if isinstance(noise, Mapping) else None) or {}
+    )
+    if isinstance(noise, Mapping):
+        word = "±" if noise.get("distribution", "uniform") == "uniform" else "σ "
+        given = {
+            g: f"{noise.get('distribution', '')} {word}{noise[g]:g}"
+            for g in ("leg", "position", "orientation")
+        }
+    else:
+        given = {}
+    true = summary.get("true_machine")
+    rows: list[tuple[str, Any]] = [
+        ("nominal machine", summary.get("nominal") or (summary.get("nominal_geometry") or {}).get("name")),
+        ("true machine", "random: nominal + U(±5 mm) per trial" if true == "random" else true),
+    ]
+    if isinstance(noise, str):
+        rows.append(("noise (as given)", noise))
+    for group, unit in (("leg", "mm"), ("position", "mm"), ("orientation", "rad")):
+        if group in sigmas:
+            shown = f"{given[group]} {unit}, " if group in given else ""
+            rows.append((f"noise: {group}", f"{shown}σ {sigmas[group]:.4g} {unit}"))
+    rows += [("trials", summary.get("trials")), ("seed", summary.get("seed"))]
+    return {
+        "columns": ["", "value"],
+        "rows": [(k, str(v)) for k, v in rows if v is not None],
+        "sortable": False,
+    }
+
+
 def paper_report(
     summary: Mapping[str, Any],
     figure_data: Mapping[str, Any],
@@ -72,6 +106,7 @@ def paper_report(
         "title": "Seed paper experiment: Table I by Monte Carlo",
         "subtitle": note,
         "tables": {
+            "Conditions": conditions_table(summary),
             "Table I: mean absolute error of the 42 parameters (mm)": {
                 "columns": [
                     "row",
@@ -141,6 +176,7 @@ def study_report(study: Mapping[str, Any], inputs: Mapping[str, Any] | None = No
         "title": "Monte Carlo study of calibration campaigns",
         "subtitle": note,
         "tables": {
+            "Conditions": conditions_table(study),
             "Study: parameter error (mm) and pose errors per campaign": {
                 "columns": columns,
                 "rows": table_rows,
