@@ -228,8 +228,8 @@ def test_validate_page_and_text_in_mrad_like_the_figures(campaign: Path, identif
     first = per_pose[1]
     assert float(first[2]) == pytest.approx(float(csv[first[0]][3]) * 1e3, rel=1e-5)  # rad in the CSV
     text = validate_text(argv)
-    assert "orientation RMS (mrad)" in text and "(rad)" not in text
-    rms = float(next(ln for ln in text.splitlines() if "orientation RMS" in ln).split()[-2])
+    assert "orientation error RMS (mrad)" in text and "(rad)" not in text
+    rms = float(next(ln for ln in text.splitlines() if "orientation error RMS" in ln).split()[-2])
     assert rms == pytest.approx(float(summary["orientation error RMS (mrad)"][0]), rel=1e-3)
 
 

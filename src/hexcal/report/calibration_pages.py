@@ -32,7 +32,7 @@ from hexcal.report.html import (
     section,
     verdict_block,
 )
-from hexcal.report.units import UNIT_WORDS, display, fmt, is_angle, parameter_unit
+from hexcal.report.units import UNIT_WORDS, display, fmt, is_angle, parameter_unit, validation_rows
 
 #: Captions of the identification figures, by figure name.
 IDENTIFICATION_CAPTIONS = {
@@ -332,37 +332,11 @@ def validation_report(
     }
 
 
-#: Rows of the validate summary: label, key, factor from result units (mm, rad).
-SUMMARY_ROWS = (
-    ("leg residual RMS (mm)", "leg_rms", 1.0),
-    ("leg residual max (mm)", "leg_max", 1.0),
-    ("position error RMS (mm)", "position_rms", 1.0),
-    ("position error max (mm)", "position_max", 1.0),
-    ("orientation error RMS (mrad)", "orientation_rms", 1e3),
-    ("orientation error max (mrad)", "orientation_max", 1e3),
-)
-
-#: The instrument's own errors: label and factor by name (``instrument_<name>_rms``).
-INSTRUMENT_ERRORS = {
-    "target": ("target distance", "mm", 1.0),
-    "position": ("tool position", "mm", 1.0),
-    "orientation": ("tool angle", "mrad", 1e3),
-}
-
-
 def summary_rows(results: Mapping[str, Mapping[str, Any]]) -> list[tuple[Any, ...]]:
     """Rows of the validate summary, one column per geometry (orientation in mrad); a row
     no geometry has a value for is left out, the instrument's own errors follow."""
     summaries = [r["summary"] for r in results.values()]
-    rows = list(SUMMARY_ROWS)
-    for key in summaries[0] if summaries else ():
-        if key.startswith("instrument_") and key.endswith("_rms"):
-            name = key.removeprefix("instrument_").removesuffix("_rms")
-            label, unit, scale = INSTRUMENT_ERRORS.get(name, (name, "mm", 1.0))
-            rows += [
-                (f"{label} RMS ({unit})", key, scale),
-                (f"{label} max ({unit})", key[:-4] + "_max", scale),
-            ]
+    rows = validation_rows(list(summaries[0]) if summaries else [])
     out = []
     for label, key, scale in rows:
         values = [s.get(key) for s in summaries]

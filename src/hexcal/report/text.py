@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from hexcal.report.units import display, is_angle, parameter_unit
+from hexcal.report.units import display, is_angle, parameter_unit, validation_rows
 
 
 def _label(method: str) -> str:
@@ -328,7 +328,7 @@ def validation_text(data: dict[str, Any]) -> str:
     >>> s = dict(poses=3, leg_rms=0.01, leg_max=0.02, position_rms=0.1, position_max=0.2,
     ...          orientation_rms=1e-5, orientation_max=2e-5)
     >>> print(validation_text({"calibrated": s, "nominal": None}).splitlines()[4])
-        position error RMS (mm)              0.1
+        position error RMS (mm)                  0.1
     """
     calibrated, nominal = data["calibrated"], data.get("nominal")
     cols = [("calibrated", calibrated)] + ([("nominal", nominal)] if nominal else [])
@@ -338,28 +338,12 @@ def validation_text(data: dict[str, Any]) -> str:
         if what in ("pose", _FULL_POSE)
         else f"Validation on {calibrated['poses']} held-out observation(s) ({what})"
     ]
-    lines.append(f"    {'':<26}" + "".join(f"{name:>14}" for name, _ in cols))
-    rows = [
-        ("leg residual RMS (mm)", "leg_rms"),
-        ("leg residual max (mm)", "leg_max"),
-        ("position error RMS (mm)", "position_rms"),
-        ("position error max (mm)", "position_max"),
-        ("orientation RMS (mrad)", "orientation_rms"),
-        ("orientation max (mrad)", "orientation_max"),
-    ]
-    labels = {"target": "target distance", "position": "tool position", "orientation": "tool angle"}
-    for key in calibrated:
-        if key.startswith("instrument_") and key.endswith("_rms"):
-            name = key.removeprefix("instrument_").removesuffix("_rms")
-            unit = "mrad" if name == "orientation" else "mm"
-            rows.append((f"{labels.get(name, name)} RMS ({unit})", key))
-            rows.append((f"{labels.get(name, name)} max ({unit})", key.replace("_rms", "_max")))
-    for label, key in rows:
-        scale = 1e3 if "(mrad)" in label else 1.0
+    lines.append(f"    {'':<30}" + "".join(f"{name:>14}" for name, _ in cols))
+    for label, key, scale in validation_rows(list(calibrated)):
         values = [d.get(key, float("nan")) for _, d in cols]
         if all(not math.isfinite(v) for v in values):
             continue
-        lines.append(f"    {label:<26}" + "".join(f"{v * scale:>14.4g}" for v in values))
+        lines.append(f"    {label:<30}" + "".join(f"{v * scale:>14.4g}" for v in values))
     return "\n".join(lines)
 
 

@@ -94,6 +94,41 @@ def blocks(names: Sequence[str]) -> list[tuple[str, int, int]]:
     return out
 
 
+#: The validation quantities, shown alike in the text and on the page: label (with its
+#: unit), summary key, factor from the result's units (mm, rad) to the label's.
+VALIDATION_ROWS = (
+    ("leg residual RMS (mm)", "leg_rms", 1.0),
+    ("leg residual max (mm)", "leg_max", 1.0),
+    ("position error RMS (mm)", "position_rms", 1.0),
+    ("position error max (mm)", "position_max", 1.0),
+    ("orientation error RMS (mrad)", "orientation_rms", 1e3),
+    ("orientation error max (mrad)", "orientation_max", 1e3),
+)
+
+#: The instrument's own validation errors (``instrument_<name>_rms``): what, unit, factor.
+INSTRUMENT_ERRORS = {
+    "target": ("target distance", "mm", 1.0),
+    "position": ("tool position", "mm", 1.0),
+    "orientation": ("tool angle", "mrad", 1e3),
+}
+
+
+def validation_rows(summary: Sequence[str]) -> list[tuple[str, str, float]]:
+    """The rows ``(label, key, factor)`` of a validation summary with keys ``summary``: the
+    platform pose's, then the instrument's own errors (orientation in mrad).
+
+    >>> validation_rows(["poses", "instrument_target_rms"])[-1]
+    ('target distance max (mm)', 'instrument_target_max', 1.0)
+    """
+    rows = list(VALIDATION_ROWS)
+    for key in summary:
+        if key.startswith("instrument_") and key.endswith("_rms"):
+            name = key.removeprefix("instrument_").removesuffix("_rms")
+            what, unit, scale = INSTRUMENT_ERRORS.get(name, (name, "mm", 1.0))
+            rows += [(f"{what} RMS ({unit})", key, scale), (f"{what} max ({unit})", key[:-4] + "_max", scale)]
+    return rows
+
+
 def fmt(value: Any, digits: int = 4, missing: str = "n/a") -> str:
     """A number for a person: ``missing`` (never ``nan``) for None and non-finite values.
 
