@@ -158,18 +158,20 @@ def correlation(names: Sequence[str], matrix: Any) -> Any:
             ax.axhline(stop - 0.5, color="0.15", lw=0.7)
             ax.axvline(stop - 0.5, color="0.15", lw=0.7)
         for label, start, stop in groups:
+            # centred over its block; on two lines where the block is narrower than the name
+            wrapped = label if (stop - start) * 1.6 >= len(label) else label.replace(" ", "\n")
             ax.text(
                 (start + stop - 1) / 2,
                 1.01,
-                plain(label),
+                plain(wrapped),
                 transform=ax.get_xaxis_transform(),
-                ha="left",
+                ha="center",
                 va="bottom",
-                rotation=35,
-                fontsize=8,
+                fontsize=8.5,
+                linespacing=1.0,
             )
     fig.colorbar(image, ax=ax, shrink=0.8, label="correlation", ticks=np.linspace(-1, 1, 9))
-    ax.set_title(f"Parameter correlations ({n} parameters, by block)", pad=46 if len(groups) > 1 else 6)
+    ax.set_title(f"Parameter correlations ({n} parameters, by block)", pad=30 if len(groups) > 1 else 6)
     return fig
 
 
