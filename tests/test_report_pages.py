@@ -360,3 +360,20 @@ def tracker_identify_page(folder: Path) -> Path:
         "--out", d / "track.yaml", "--setup-out", d / "track-setup.yaml", "--json", d / "track.json",
         "--report", d / "track.txt", "--html", d / "track.html", "--force")  # fmt: skip
     return d / "track.html"
+
+
+def test_text_reports_load_no_figure_code() -> None:
+    """The pages' modules (and matplotlib) load only when a page is rendered."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; from hexcal.report import render\n"
+        "s = dict(poses=3, leg_rms=0.01, leg_max=0.02, position_rms=0.1, position_max=0.2,"
+        " orientation_rms=1e-5, orientation_max=2e-5)\n"
+        "render('validation', {'calibrated': s}); render('study', [], 'json')\n"
+        "loaded = ('matplotlib', 'numpy', 'hexcal.report.calibration_pages')\n"
+        "print(sorted(m for m in loaded if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

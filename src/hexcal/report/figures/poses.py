@@ -31,6 +31,10 @@ POSE_MARKER = 30.0
 #: Colours of the third coordinate: viridis without its palest yellow (rings on white).
 POSE_COLOURS = ListedColormap(plt.get_cmap("viridis")(np.linspace(0.0, 0.85, 256)), "viridis-dark")
 
+#: Above this many poses a projection is a cloud of small dots (poses of a large set rarely
+#: coincide, and rings would hide the cloud).
+RING_LIMIT = 200
+
 #: Rings drawn at one place at most (the count beside says how many poses are there).
 MAX_RINGS = 8
 
@@ -94,7 +98,8 @@ def workspace_poses(
 ) -> Any:
     """Every pose visible: positions x–y (colour z) and angles a–b (colour c), in mm and
     degrees. Poses that fall on one place of a projection are drawn as concentric rings, one
-    ring per pose (up to :data:`MAX_RINGS`), with their count beside: never one dot for seven."""
+    ring per pose (up to :data:`MAX_RINGS`), with their count beside: never one dot for seven
+    (sets of more than :data:`RING_LIMIT` poses: a cloud of small dots)."""
     p = np.asarray(poses, dtype=float).reshape(-1, 6)
     raster = len(p) > RASTER_POINTS
     fig, axes = plt.subplots(1, 2, figsize=(10.5, 4.4), constrained_layout=True)
@@ -102,7 +107,7 @@ def workspace_poses(
     b = None if box is None else np.asarray(box, dtype=float).copy()
     if b is not None:
         b[3:] = np.rad2deg(b[3:])
-    shared = []
+    shared = []  # (places, projection, rings drawn) of each panel
     panels = (((0, 1, 2), ("x (mm)", "y (mm)", "z (mm)")), ((3, 4, 5), ("a (deg)", "b (deg)", "c (deg)")))
     for ax, ((i, j, w), labels) in zip(axes, panels, strict=True):
         u, v, c = values[:, i], values[:, j], values[:, w]
@@ -110,10 +115,11 @@ def workspace_poses(
         if b is not None:
             span = (max(span[0], b[i, 1] - b[i, 0]), max(span[1], b[j, 1] - b[j, 0]))
         depth, count = stacked(u, v, span)
-        shared.append((int(np.sum(depth == 0)), labels[0][0] + "–" + labels[1][0], count.max() > 1))
+        rings = count.max() > 1 and len(p) <= RING_LIMIT
+        shared.append((int(np.sum(depth == 0)), labels[0][0] + "–" + labels[1][0], rings))
         lo, hi = float(np.min(c)), float(np.max(c))
         mappable = ScalarMappable(Normalize(lo, hi if hi > lo else lo + 1), POSE_COLOURS)
-        if count.max() > 1:
+        if rings:
             # rings: the radius grows by a marker's radius per pose at one place
             radius = 1 + 0.75 * np.minimum(depth, MAX_RINGS)
             order = np.argsort(-depth, kind="stable")
@@ -131,7 +137,15 @@ def workspace_poses(
                     f"×{count[k]}", (u[k], v[k]), xytext=(8, 8), textcoords="offset points", fontsize=7
                 )
         else:
-            ax.scatter(u, v, s=POSE_MARKER * 0.5, c=mappable.to_rgba(c), rasterized=raster)
+            small = len(p) > RING_LIMIT
+            ax.scatter(
+                u,
+                v,
+                s=POSE_MARKER * (0.2 if small else 0.5),
+                c=mappable.to_rgba(c),
+                alpha=0.6 if small else 1.0,
+                rasterized=raster,
+            )
         if b is not None:
             ax.add_patch(
                 plt.Rectangle(
@@ -149,11 +163,11 @@ def workspace_poses(
         ax.set_ylabel(labels[1])
         fig.colorbar(mappable, ax=ax, label=labels[2])
         ax.grid(True, alpha=0.3)
-    rings = ""
+    where = ""
     if any(r for _, _, r in shared):
         places = " and ".join(f"{n} {what}" for n, what, _ in shared)
-        rings = f" at {places} places; one ring per pose"
-    fig.suptitle(f"{plain(title)} ({len(p)} poses{rings})")
+        where = f" at {places} places; one ring per pose"
+    fig.suptitle(f"{plain(title)} ({len(p)} poses{where})")
     return fig
 
 
