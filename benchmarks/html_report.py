@@ -31,7 +31,7 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses
 from hexcal.instruments.pose import Measurements
-from hexcal.report.html_reports import identification_report, render_html
+from hexcal.report import identification_report, render_html
 from hexcal.simulation import simulate_measurements
 
 SEED = 20261130

@@ -20,8 +20,9 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import workspace_corners
 from hexcal.instruments.pose import Measurements
-from hexcal.report.html_reports import identification_report, render_html, validation_report
+from hexcal.report import identification_report, render_html, validation_report
 from hexcal.simulation import simulate_measurements
+from test_report_pages import hostile_pages, tracker_identify_page
 
 NOMINAL, TRUE = preset("paper-hmt"), preset("paper-hmt-true")
 
@@ -72,7 +73,7 @@ def test_identify_page_in_the_browser(browser, identify_page: Path) -> None:  # 
         def column() -> np.ndarray:
             return np.array(
                 page.eval_on_selector_all(
-                    "#parameters tbody tr td:nth-child(4)",
+                    "#parameters tbody tr td:nth-child(5)",  # parameter, unit, nominal, identified, change
                     "cells => cells.map(c => parseFloat(c.dataset.value))",
                 )
             )
@@ -198,3 +199,42 @@ def test_html_target_refused_up_front(tmp_path: Path, capsys: pytest.CaptureFixt
     assert clash.read_text(encoding="utf-8") == "{}" and sorted(out.iterdir()) == [clash]
     assert main(["simulate", "--trials", "1", "--html", str(tmp_path / "no" / "x.html")]) == 1
     assert not (tmp_path / "no").exists()
+
+
+# -- pages a person reads (tests/test_report_pages.py builds them) ------------------------------
+
+
+def test_hostile_pages_in_the_browser(browser, tmp_path: Path) -> None:  # noqa: F811
+    """Pose ids like ``<img src=x onerror=...>`` and a geometry named ``<script>...``: no
+    dialog, no image, no error; the page shows them as text."""
+    paths, _ = hostile_pages(tmp_path)
+    for name, path in paths.items():
+        opened = open_report(browser, path)
+        dialogs: list[str] = []
+        opened.page.on("dialog", lambda dialog, seen=dialogs: seen.append(dialog.message))
+        try:
+            opened.page.reload(wait_until="load")
+            assert not dialogs and opened.console_errors == [] and opened.page_errors == []
+            assert opened.page.locator("img").count() == 0
+            assert opened.page.get_by_text('<img src=x onerror="alert(1)">', exact=False).count() > 0
+            screenshot(opened, f"hostile-{name}-report")
+        finally:
+            opened.page.context.close()
+
+
+def test_tracker_identify_page_in_the_browser(browser, tmp_path: Path) -> None:  # noqa: F811
+    """A tracker campaign's identify page: sessions, the setup in degrees, every figure drawn."""
+    opened = open_report(browser, tracker_identify_page(tmp_path))
+    page = opened.page
+    try:
+        assert opened.blocked == [] and opened.console_errors == [] and opened.page_errors == []
+        assert page.locator("#sessions tbody tr").count() == 1
+        assert page.locator("#setup-1 tbody tr").count() == 15  # frame and three targets
+        figures = page.locator("figure svg")
+        assert figures.count() == 5
+        for k in range(figures.count()):
+            box = figures.nth(k).bounding_box()
+            assert box is not None and box["width"] > 400 and box["height"] > 150
+        screenshot(opened, "tracker-identify-report")
+    finally:
+        page.context.close()

@@ -200,6 +200,6 @@ def test_the_declarations_are_not_options_a_report_shows(capsys, tmp_path, monke
     status, _, err = _run(capsys, *argv, "--out", "s.csv", "--html", "s.html")
     assert status == 0, err
     page = (tmp_path / "s.html").read_text(encoding="utf-8")
-    assert "strategy=optimal" in page  # the options are there
+    assert "--strategy optimal" in page  # the options are there, as typed flags
     assert "input_lists" not in page and "folder_files" not in page
     assert "&lt;function" not in page and "<function" not in page

@@ -3,8 +3,8 @@
 Each ``<thing>_dict(result)`` turns a result object of a lower layer into the mapping that
 the text, JSON and figure renderers read; where the JSON file of a command is that mapping,
 its keys are exactly those of the file. Floats may be NaN or infinite here: the JSON
-renderer writes them as ``null``. Imports numpy and the layers below, by duck typing on the
-results' attributes.
+renderer writes them as ``null``. Imports numpy and the layers below (the names of parameter
+combinations from :mod:`hexcal.calibration.verdict`), by duck typing on the results' attributes.
 """
 
 from __future__ import annotations
@@ -12,6 +12,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+
+from hexcal.calibration.verdict import combination_name
 
 
 def identification_dict(
@@ -55,15 +57,13 @@ def implied_noise(noise: dict[str, Any] | None) -> dict[str, Any] | None:
 
 
 def _weak_combinations(result: Any, count: int = 3) -> list[list[Any]]:
-    """The smallest scaled singular values and the parameter combinations they belong to."""
-    out = []
+    """The smallest scaled singular values (relative to the largest) and the parameter
+    combinations they belong to, named by the library's :func:`combination_name`."""
     sv = result.singular_values
-    for k in range(min(count, sv.size)):
-        vec = result.singular_vectors[-1 - k]
-        order = np.argsort(-np.abs(vec))[:4]
-        combo = " ".join(f"{vec[i]:+.2f}·{result.names[i]}" for i in order if abs(vec[i]) >= 0.05)
-        out.append([float(sv[-1 - k] / sv[0]), combo])
-    return out
+    return [
+        [float(sv[-1 - k] / sv[0]), combination_name(result.singular_vectors[-1 - k], tuple(result.names))]
+        for k in range(min(count, sv.size))
+    ]
 
 
 def identification_report_dict(

@@ -1,10 +1,14 @@
-"""Self-contained HTML reports: one file that opens from disk with no network.
+"""The HTML page: one self-contained file that opens from disk with no network.
 
 Everything is inline: the styles, a few lines of script (sortable tables), and the figures
-as SVG text (rendered by :mod:`hexcal.report.figures`). Pages are built from the same
-``to_dict()`` dictionaries the text and JSON reports use, so the verdict, the numbers and
-the parameter table are the same in every format. Readable on a laptop screen and
-printable (a print style sheet drops the interactive parts).
+as SVG text (drawn by :mod:`hexcal.report.figures`). This module holds what every page is
+made of: escaping, numbers, sections, the verdict block, tables, the figure grid, the
+inputs that make a report traceable, the page shell, a page of tables and figures, and
+the check of the ``--html`` target. The pages of the commands (built from the same
+``to_dict()`` dictionaries the text and JSON reports use) are in
+:mod:`hexcal.report.calibration_pages`, :mod:`hexcal.report.study_pages` and
+:mod:`hexcal.report.planning_pages`. Readable on a laptop screen and printable (a print
+style sheet drops the interactive parts). Standard library only.
 
 >>> page = html_page("Demo", [section("Numbers", key_value_table({"poses": 15}))])
 >>> page.startswith("<!DOCTYPE html>") and "poses" in page and "http" not in page
@@ -16,7 +20,9 @@ from __future__ import annotations
 import html
 import math
 import re
+import shlex
 from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 _STYLE = """
@@ -39,7 +45,7 @@ h2 { font-size: 1.15rem; margin: 1.8rem 0 .6rem; border-bottom: 1px solid var(--
 .reasons li.fail { color: var(--fail); } .reasons li.warn { color: var(--warn); }
 table { border-collapse: collapse; font-variant-numeric: tabular-nums; margin: .3rem 0 1rem; }
 th, td { padding: .22rem .6rem; border-bottom: 1px solid var(--line); text-align: right; }
-th:first-child, td:first-child { text-align: left; }
+th:first-child, td:first-child, th.text, td.text { text-align: left; }
 th { background: var(--bg-alt); position: sticky; top: 0; }
 table.sortable th { cursor: pointer; user-select: none; }
 table.sortable th[aria-sort="ascending"]::after { content: " \\25B2"; font-size: .7em; }
@@ -48,6 +54,7 @@ table.sortable th[aria-sort="descending"]::after { content: " \\25BC"; font-size
 .figures { display: grid; grid-template-columns: repeat(auto-fit, minmax(520px, 1fr)); gap: 1rem; }
 figure { margin: 0; border: 1px solid var(--line); border-radius: 6px; padding: .5rem; background: #fff; }
 figure.wide { grid-column: 1 / -1; }
+figure.square svg { max-width: 980px; margin: 0 auto; }
 table.kv td:last-child { text-align: left; overflow-wrap: anywhere; }
 figure svg { width: 100%; height: auto; display: block; }
 figcaption { color: var(--muted); font-size: .88rem; margin-top: .3rem; }
@@ -125,17 +132,27 @@ def section(title: str, body: str, anchor: str = "") -> str:
     return f"<section{ident}>\n<h2>{esc(title)}</h2>\n{body}\n</section>"
 
 
+#: The order of the verdict's reasons on a page: failures first, then warnings, then info.
+SEVERITY_ORDER = {"fail": 0, "warn": 1, "info": 2}
+
+
 def verdict_block(verdict: str | None, reasons: Iterable[Mapping[str, Any] | str] = ()) -> str:
-    """The verdict in one line (``pass``, ``warn``, ``fail``) with its reasons."""
+    """The verdict in one line (``pass``, ``warn``, ``fail``) with its reasons, the most
+    serious first (failures, warnings, then information; each kind in its given order)."""
     word = (verdict or "none").lower()
-    items = []
+    listed = []
     for reason in reasons:
         if isinstance(reason, Mapping):
             severity = str(reason.get("severity", "info")).lower()
             text = reason.get("message", "")
         else:
             severity, text = "info", reason
-        items.append(f'<li class="{esc(severity)}">{esc(text)}</li>')
+        listed.append((severity, text))
+    listed.sort(key=lambda item: SEVERITY_ORDER.get(item[0], len(SEVERITY_ORDER)))
+    items = [
+        f'<li class="{esc(severity)}" data-severity="{esc(severity)}">{esc(text)}</li>'
+        for severity, text in listed
+    ]
     listing = f'<ul class="reasons">{"".join(items)}</ul>' if items else ""
     return (
         f'<div class="verdict {esc(word)}" data-verdict="{esc(word)}"><span class="word">{esc(word)}</span>'
@@ -152,6 +169,9 @@ def key_value_table(rows: Mapping[str, Any], digits: int = 6) -> str:
     return f'<table class="kv"><tbody>{cells}</tbody></table>'
 
 
+_TEXT = ' class="text"'
+
+
 def _numeric(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
@@ -164,18 +184,27 @@ def data_table(
     table_id: str = "",
     scroll: bool = False,
 ) -> str:
-    """A table of rows; numeric cells carry their value for sorting."""
-    head = "".join(f'<th scope="col">{esc(c)}</th>' for c in columns)
+    """A table of rows; numeric cells carry their value for sorting, columns of text are
+    aligned left (numbers right)."""
+    text = [
+        not any(_numeric(row[k]) for row in rows if k < len(row)) and any(k < len(row) for row in rows)
+        for k in range(len(columns))
+    ]
+    head = "".join(
+        f'<th scope="col"{_TEXT if k < len(text) and text[k] else ""}>{esc(c)}</th>'
+        for k, c in enumerate(columns)
+    )
     body = []
     for row in rows:
         cells = []
-        for value in row:
+        for k, value in enumerate(row):
             if _numeric(value):
                 v = float(value)
                 data = repr(v) if math.isfinite(v) else "NaN"
                 cells.append(f'<td data-value="{data}">{number(v, digits)}</td>')
             else:
-                cells.append(f"<td>{'-' if value is None else esc(value)}</td>")
+                align = _TEXT if k < len(text) and text[k] else ""
+                cells.append(f"<td{align}>{'-' if value is None else esc(value)}</td>")
         body.append(f"<tr>{''.join(cells)}</tr>")
     ident = f' id="{esc(table_id)}"' if table_id else ""
     kind = ' class="sortable"' if sortable else ""
@@ -183,17 +212,26 @@ def data_table(
     return f'<div class="scroll">{table}</div>' if scroll else table
 
 
-def figure_grid(figures: Mapping[str, str], captions: Mapping[str, str] | None = None) -> str:
-    """Inline SVG figures side by side (each ``name -> svg text``)."""
+def figure_grid(
+    figures: Mapping[str, str], captions: Mapping[str, str] | None = None, wide: Iterable[str] = ()
+) -> str:
+    """Inline SVG figures side by side (each ``name -> svg text``); wide figures, and those
+    named in ``wide``, span the row (a square one centred, at most 980 px)."""
     captions = captions or {}
+    wide = set(wide)
     items = []
     for k, (name, svg) in enumerate(figures.items()):
         cap = captions.get(name, "")
         caption = f"<figcaption>{esc(cap)}</figcaption>" if cap else ""
         body = _unique_ids(_strip_xml_header(svg), f"f{k}-")
         width, aspect = _size(body)
-        wide = ' class="wide"' if width > 640 and aspect > 1.6 else ""
-        items.append(f'<figure data-figure="{esc(name)}"{wide}>{body}{caption}</figure>')
+        classes = []
+        if name in wide or (width > 640 and aspect > 1.6):
+            classes.append("wide")
+            if aspect < 1.4:
+                classes.append("square")
+        kind = f' class="{" ".join(classes)}"' if classes else ""
+        items.append(f'<figure data-figure="{esc(name)}"{kind}>{body}{caption}</figure>')
     return f'<div class="figures">{"".join(items)}</div>'
 
 
@@ -223,22 +261,130 @@ def _strip_xml_header(svg: str) -> str:
     return svg[start:] if start >= 0 else svg
 
 
+#: Options a command records for its own machinery (the output set, the executor), not
+#: the user's: left out of a page's inputs.
+INTERNAL_OPTIONS = frozenset({"func", "command", "inputs", "outputs", "folders", "executor"})
+
+
+def user_options(options: Mapping[str, Any]) -> dict[str, Any]:
+    """The options a user chose, without the command's internals: no output-set bookkeeping,
+    no empty values, and no ``noise_dist`` where no noise was given (the noise was learned).
+
+    >>> user_options({"folders": (), "outputs": ("out",), "noise_dist": "uniform", "fit": "joints"})
+    {'fit': 'joints'}
+    """
+    out = {
+        k: v
+        for k, v in options.items()
+        if k not in INTERNAL_OPTIONS and v not in (None, False, "", (), []) and not callable(v)
+    }
+    if "noise" not in out:
+        out.pop("noise_dist", None)
+    return out
+
+
+def option_text(name: str, value: Any) -> str:
+    """An option as typed: ``--fit joints,l0``, ``--force``, ``--data a.csv --data b.csv``.
+
+    >>> option_text("max_change", 0.25), option_text("force", True), option_text("data", ["a", "b c"])
+    ('--max-change 0.25', '--force', "--data a --data 'b c'")
+    """
+    flag = "--" + name.replace("_", "-")
+    if value is True:
+        return flag
+    values = value if isinstance(value, list | tuple) else [value]
+    return " ".join(f"{flag} {shlex.quote(str(v))}" for v in values)
+
+
 def inputs_table(inputs: Mapping[str, Any]) -> str:
-    """The inputs that make a report traceable: files with their SHA-256, options, version, date."""
+    """The inputs that make a report traceable: files with their SHA-256, the command and the
+    options a user chose (as typed, defaults included; internals left out), version, date."""
     parts = []
     files = inputs.get("files", [])
     if files:
         rows = [(f.get("role", ""), f.get("path", ""), f.get("sha256", "")) for f in files]
         parts.append(data_table(("input", "file", "SHA-256"), rows, sortable=False))
-    rest = {k: v for k, v in inputs.items() if k != "files"}
+    rest: dict[str, Any] = {}
+    for key, value in inputs.items():
+        if key == "files":
+            continue
+        if key == "options" and isinstance(value, Mapping):
+            chosen = user_options(value)
+            rest["options (defaults included)"] = (
+                " ".join(option_text(k, v) for k, v in chosen.items()) if chosen else "none"
+            )
+        else:
+            rest[key] = _plain_text(value)
     if rest:
-        parts.append(key_value_table({k: _plain_text(v) for k, v in rest.items()}))
+        parts.append(key_value_table(rest))
     return "\n".join(parts)
 
 
 def _plain_text(value: Any) -> Any:
     if isinstance(value, Mapping):
         return ", ".join(f"{k}={_plain_text(v)}" for k, v in value.items())
-    if isinstance(value, (list, tuple)):
+    if isinstance(value, list | tuple):
         return " ".join(str(v) for v in value)
     return value
+
+
+def tables_page(report: Mapping[str, Any]) -> str:
+    """A page of tables and figures (``hexcal paper``, ``simulate``, ``select``,
+    ``observability``).
+
+    ``report["tables"]`` maps a title to ``{"columns": [...], "rows": [[...], ...]}`` (and
+    an optional ``"note"``, text below the table, and ``"sortable": False`` for a table of
+    labelled values); an optional ``report["text"]`` is shown
+    preformatted (the command's text table, folded); the figures come after the tables, or
+    first with ``report["figures_first"]``; ``report["wide"]`` names figures that span the row.
+    """
+    sections = []
+    for title, table in report.get("tables", {}).items():
+        sortable = table.get("sortable", True)
+        body = data_table(
+            table["columns"],
+            table["rows"],
+            sortable=sortable,
+            table_id=slug(title),
+            scroll=len(table["rows"]) > 20,
+        )
+        extra = f'<p class="muted">{esc(table["note"])}</p>' if table.get("note") else ""
+        hint = '<p class="muted">Click a column to sort.</p>' if sortable and len(table["rows"]) > 3 else ""
+        sections.append(section(title, body + extra + hint, f"{slug(title)}-section"))
+    figures = report.get("figures", {})
+    if figures:
+        grid = figure_grid(figures, report.get("captions", {}), report.get("wide", ()))
+        at = 0 if report.get("figures_first") else len(sections)
+        sections.insert(at, section("Figures", grid, "figures"))
+    if report.get("text"):
+        printed = (
+            "<details><summary>the command's text output</summary>"
+            f'<pre class="mono">{esc(report["text"])}</pre></details>'
+        )
+        sections.append(section("As printed", printed, "text"))
+    sections.append(section("Inputs", inputs_table(report.get("inputs", {})), "inputs"))
+    return html_page(report.get("title", "hexcal report"), sections, report.get("subtitle", ""))
+
+
+def slug(text: str) -> str:
+    """An id for an HTML element from a title.
+
+    >>> slug("Table I: mean error (mm)")
+    'table-i-mean-error-mm'
+    """
+    return re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")
+
+
+def check_html_target(html: str, inputs: Iterable[Any] = (), outputs: Iterable[Any] = ()) -> None:
+    """Refuse, before any work, an ``--html`` file that is also an input or another output.
+
+    Raises
+    ------
+    ValueError
+        When ``html`` names the same file as one of ``inputs`` or ``outputs`` (None skipped).
+    """
+    target = Path(html).resolve()
+    for role, paths in (("an input", inputs), ("another output", outputs)):
+        for path in paths:
+            if path is not None and Path(path).resolve() == target:
+                raise ValueError(f"--html {html}: is also {role} ({path})")

@@ -2,17 +2,18 @@
 
 :data:`RENDERERS` maps ``(kind, fmt)`` to a function of the result's plain dictionary
 (and keyword options) that returns a string. Formats are ``text``, ``json``
-(strict: NaN written as ``null``) and ``html`` (self-contained pages,
-:mod:`hexcal.report.html_pages`). Figures, which write files, are in
-:mod:`hexcal.report.figures`. Standard library only at import.
+(strict: NaN written as ``null``) and ``html`` (self-contained pages, whose modules, with
+their figures, are imported only when a page is rendered). Figures, which write files, are
+in :mod:`hexcal.report.figures`. Standard library only at import.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import importlib
+from collections.abc import Callable, Mapping
 from typing import Any
 
-from hexcal.report import html_pages, plan, text
+from hexcal.report import plan, text
 from hexcal.report.jsonout import json_text
 
 #: ``(kind, fmt)`` -> renderer of the kind's dictionary.
@@ -48,14 +49,32 @@ for _kind, _renderer in TEXT_RENDERERS.items():
     register(_kind, "json", _select_json if _kind == "select" else _json)
 
 
-# HTML pages (self-contained, figures inline): their dictionaries carry figures and inputs
-for _kind, _page in (
-    ("identification", html_pages.identification_page),
-    ("validation", html_pages.validation_page),
-    ("paper", html_pages.tables_page),
-    ("study", html_pages.tables_page),
-):
-    register(_kind, "html", _page)
+def page(spec: str) -> Callable[..., str]:
+    """The renderer ``"module:function"`` of :mod:`hexcal.report`, imported when first called
+    (a page's module draws figures: matplotlib is not loaded for a text report)."""
+    module, _, name = spec.partition(":")
+
+    def renderer(data: Any, **options: Any) -> str:
+        return getattr(importlib.import_module(f"hexcal.report.{module}"), name)(data, **options)
+
+    renderer.__name__ = name
+    renderer.__doc__ = f"The page of :func:`hexcal.report.{module}.{name}`."
+    return renderer
+
+
+#: HTML pages (self-contained, figures inline): their dictionaries carry figures and inputs.
+HTML_PAGES = {
+    "identification": "calibration_pages:identification_page",
+    "validation": "calibration_pages:validation_page",
+    "paper": "html:tables_page",
+    "study": "html:tables_page",
+    "observability": "html:tables_page",
+    "select": "html:tables_page",
+    "tables": "html:tables_page",
+}
+
+for _kind, _spec in HTML_PAGES.items():
+    register(_kind, "html", page(_spec))
 
 
 def formats(kind: str | None = None) -> list[tuple[str, str]]:
@@ -85,3 +104,9 @@ def render(kind: str, data: Any, fmt: str = "text", **options: Any) -> str:
         known = ", ".join(f"{k}/{f}" for k, f in sorted(RENDERERS))
         raise KeyError(f"no renderer for {kind!r} as {fmt!r}; registered: {known}") from None
     return renderer(data, **options)
+
+
+def render_html(report: Mapping[str, Any]) -> str:
+    """The HTML page of a report mapping (one of the ``*_report`` functions): its ``kind``
+    picks the page (a page of tables and figures for the studies and the planning)."""
+    return render(report.get("kind", "tables"), report, "html")

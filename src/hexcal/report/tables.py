@@ -44,8 +44,7 @@ def validation_table(calibrated: Any, nominal: Any | None, ids: Sequence[str]) -
     results = [("", calibrated)] + ([("nominal_", nominal)] if nominal is not None else [])
     columns, table = [], []
     for prefix, res in results:
-        with np.errstate(invalid="ignore"):
-            leg = np.sqrt(np.mean(res.leg_residuals**2, axis=1))
+        leg = np.asarray(res.to_dict()["leg_rms"], dtype=float)  # per observation, from the library
         columns += [f"{prefix}leg_rms", f"{prefix}position_error", f"{prefix}orientation_error"]
         table += [leg, res.position_error, res.orientation_error]
         for name, values in res.instrument_errors.items():
@@ -70,14 +69,20 @@ def errormap_tables(maps: Any) -> dict[str, Table]:
     ``errormap_<name>.csv``."""
     tables: dict[str, Table] = {}
     for axis, line in maps.lines.items():
+        stats = line.to_dict()  # the mean and sd over the draws, from the library
         rows = np.column_stack(
             [
                 line.poses.reshape(-1, 6),
                 np.repeat(line.levels, line.values.size),
-                line.position.mean(-1).ravel(),
-                line.position.std(-1).ravel(),
-                line.orientation.mean(-1).ravel(),
-                line.orientation.std(-1).ravel(),
+                *(
+                    np.asarray(stats[key], dtype=float).ravel()
+                    for key in (
+                        "position_mean_mm",
+                        "position_sd_mm",
+                        "orientation_mean_rad",
+                        "orientation_sd_rad",
+                    )
+                ),
             ]
         )
         columns = [

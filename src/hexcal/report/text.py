@@ -1,12 +1,15 @@
 """Text renderers of calibration results: identification report, validation, the paper's
 Table I and the Monte Carlo study table. Each renders a plain dictionary (see
-:mod:`hexcal.report.convert`); standard library only at import.
+:mod:`hexcal.report.convert`); instrument angles in degrees and orientation errors in mrad,
+as on the pages and figures (:mod:`hexcal.report.units`); standard library only at import.
 """
 
 from __future__ import annotations
 
 import math
 from typing import Any
+
+from hexcal.report.units import display, is_angle, parameter_unit, validation_rows
 
 
 def _label(method: str) -> str:
@@ -110,7 +113,8 @@ def _fit_statistics(data: dict[str, Any], unit: str, outliers: list[str]) -> lis
         f"    rank                {data['rank']} of {n}",
     ]
     if data.get("noise_text") is not None:
-        lines.append(f"    noise model         {data['noise_text']}")
+        if not data.get("noise"):  # else the [[Noise]] section says it, group by group
+            lines.append(f"    noise model         {data['noise_text']}")
         given = (data.get("noise") or {}).get("source") != "estimated"
         if given and method in ("ml", "gls") and not 0.5 < data["reduced_chi2"] < 2.0:
             lines.append(
@@ -119,6 +123,12 @@ def _fit_statistics(data: dict[str, Any], unit: str, outliers: list[str]) -> lis
             )
     return lines
 
+
+#: What a validation of a full pose measured in the base frame says of its instrument.
+_FULL_POSE = "full pose in the base frame"
+
+#: The unit column of the parameter table (gains are pure numbers).
+_UNIT_TEXT = {"mm": "mm", "deg": "deg", "1": "-"}
 
 #: Order of the reasons in the report: failures first.
 _SEVERITY_ORDER = {"fail": 0, "warn": 1, "info": 2}
@@ -191,10 +201,10 @@ def noise_lines(data: dict[str, Any]) -> list[str]:
 
 def _setup_value(name: str, value: float | None) -> tuple[str, str]:
     """A setup parameter for the report: angles in degrees, lengths in mm."""
-    angle = name.startswith(("frame.", "tool.")) and name.split(".")[-1] in ("a", "b", "c")
+    unit = " deg" if is_angle(name) else " mm"
     if value is None or not math.isfinite(value):
-        return "n/a", " deg" if angle else " mm"
-    return (f"{math.degrees(value):.6f}", " deg") if angle else (f"{value:.6f}", " mm")
+        return "n/a", unit
+    return f"{display(name, value):.6f}", unit
 
 
 def session_lines(data: dict[str, Any]) -> list[str]:
@@ -208,7 +218,9 @@ def session_lines(data: dict[str, Any]) -> list[str]:
         lines.append(f"    {s['label']}: {s['description']}, {s['observations']} observation(s)")
         reg = s["registration"]
         if reg is not None:
-            angle = f", orientation RMS {reg['angle_rms_rad']:.3g} rad" if "angle_rms_rad" in reg else ""
+            angle = (
+                f", orientation RMS {reg['angle_rms_rad'] * 1e3:.3g} mrad" if "angle_rms_rad" in reg else ""
+            )
             unit = "poses" if "tool" in reg else "points"
             lines.append(
                 f"      instrument frame auto: registered from {reg['points']} {unit}, residual RMS "
@@ -254,11 +266,14 @@ def identification_text(data: dict[str, Any]) -> str:
     lines += session_lines(data)
     bound = data["bound"]
     header = f"    {'name':<8}{'nominal':>14}{'identified':>14}{'change':>12}{'stderr':>12}"
-    lines += ["[[Parameters]]", header + (f"{'CR bound':>12}" if bound is not None else "")]
+    header += f"{'CR bound':>12}" if bound is not None else ""
+    lines += ["[[Parameters]]", header + "  unit"]
     for k, name in enumerate(names):
         start, value, err = data["start"][name], data["parameters"][name], data["stderr_values"][k]
+        start, value, err = (display(name, v) for v in (start, value, err))
         row = f"    {name:<8}{start:>14.6f}{value:>14.6f}{value - start:>+12.6f}{err:>12.6f}"
-        lines.append(row + (f"{bound[k]:>12.6f}" if bound is not None else ""))
+        row += f"{display(name, bound[k]):>12.6f}" if bound is not None else ""
+        lines.append(row + f"  {_UNIT_TEXT[parameter_unit(name)]}")
     if bound is not None:
         lines.append(
             "    (stderr: from the fit; CR bound: Cramér–Rao σ of any unbiased estimator under the "
@@ -313,34 +328,22 @@ def validation_text(data: dict[str, Any]) -> str:
     >>> s = dict(poses=3, leg_rms=0.01, leg_max=0.02, position_rms=0.1, position_max=0.2,
     ...          orientation_rms=1e-5, orientation_max=2e-5)
     >>> print(validation_text({"calibrated": s, "nominal": None}).splitlines()[4])
-        position error RMS (mm)              0.1
+        position error RMS (mm)                  0.1
     """
     calibrated, nominal = data["calibrated"], data.get("nominal")
     cols = [("calibrated", calibrated)] + ([("nominal", nominal)] if nominal else [])
-    what = data.get("instrument") or "full pose in the base frame"
-    where = "" if what == "full pose in the base frame" else f" ({what})"
-    lines = [f"Validation on {calibrated['poses']} held-out pose(s){where}"]
-    lines.append(f"    {'':<26}" + "".join(f"{name:>14}" for name, _ in cols))
-    rows = [
-        ("leg residual RMS (mm)", "leg_rms"),
-        ("leg residual max (mm)", "leg_max"),
-        ("position error RMS (mm)", "position_rms"),
-        ("position error max (mm)", "position_max"),
-        ("orientation RMS (rad)", "orientation_rms"),
-        ("orientation max (rad)", "orientation_max"),
+    what = data.get("instrument") or _FULL_POSE
+    lines = [
+        f"Validation on {calibrated['poses']} held-out pose(s)"
+        if what in ("pose", _FULL_POSE)
+        else f"Validation on {calibrated['poses']} held-out observation(s) ({what})"
     ]
-    labels = {"target": "target distance", "position": "tool position", "orientation": "tool angle"}
-    for key in calibrated:
-        if key.startswith("instrument_") and key.endswith("_rms"):
-            name = key.removeprefix("instrument_").removesuffix("_rms")
-            unit = "rad" if name == "orientation" else "mm"
-            rows.append((f"{labels.get(name, name)} RMS ({unit})", key))
-            rows.append((f"{labels.get(name, name)} max ({unit})", key.replace("_rms", "_max")))
-    for label, key in rows:
+    lines.append(f"    {'':<30}" + "".join(f"{name:>14}" for name, _ in cols))
+    for label, key, scale in validation_rows(list(calibrated)):
         values = [d.get(key, float("nan")) for _, d in cols]
         if all(not math.isfinite(v) for v in values):
             continue
-        lines.append(f"    {label:<26}" + "".join(f"{v:>14.4g}" for v in values))
+        lines.append(f"    {label:<30}" + "".join(f"{v * scale:>14.4g}" for v in values))
     return "\n".join(lines)
 
 

@@ -1,0 +1,388 @@
+"""The pages of ``hexcal identify --html`` and ``hexcal validate --html``: what each shows,
+gathered from the results, and the page itself.
+
+:func:`identification_report` and :func:`validation_report` gather, from a result, its
+``to_dict()`` and its figures (SVG), into one JSON-ready mapping; :func:`identification_page`
+and :func:`validation_page` turn such a mapping into the self-contained page (they read
+plain dictionaries only). Lengths in mm, instrument angles in degrees, errors of
+orientation in mrad, everywhere on a page and in its figures.
+
+>>> result = {"method": "ml", "poses": 15, "names": ["u1.x"], "start": {"u1.x": 305.4},
+...           "parameters": {"u1.x": 305.3}, "stderr": {"u1.x": 0.01}, "bound": {"u1.x": 0.009}}
+>>> page = identification_page({"result": result, "figures": {}, "inputs": {}})
+>>> "u1.x" in page and 'id="parameters"' in page
+True
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from hexcal.core.linalg import RANK_RTOL
+from hexcal.estimation.registry import ESTIMATORS
+from hexcal.report import figures as fig
+from hexcal.report.html import (
+    data_table,
+    esc,
+    figure_grid,
+    html_page,
+    inputs_table,
+    key_value_table,
+    section,
+    verdict_block,
+)
+from hexcal.report.units import UNIT_WORDS, display, fmt, is_angle, parameter_unit, validation_rows
+
+#: Captions of the identification figures, by figure name.
+IDENTIFICATION_CAPTIONS = {
+    "parameter_changes": "Identified change of every parameter from its start value, with ±2 standard "
+    "errors (bars) and ±2 Cramér–Rao σ (ticks); one panel per unit (mm, 10⁻³ for gains, degrees).",
+    "pose_residuals": "RMS leg residual of every measured pose with the nominal and the identified "
+    "parameters; outliers and flagged poses are marked.",
+    "correlation": "Correlation matrix of the identified parameters (shared scale −1 to 1), grouped by "
+    "block: lines between the blocks, their names above.",
+    "singular_values": "Singular values of the column-normalised identification Jacobian, relative to "
+    "the largest; the rank threshold is dashed.",
+    "workspace": "The poses of the measurements (measured, or estimated from what the instrument saw): "
+    "positions x–y coloured by z (left) and angles a–b coloured by c (right); poses at one place are "
+    "drawn as rings, one per pose. Dashed: the nominal workspace box (the poses a miscalibrated machine "
+    "reaches may lie off it).",
+}
+
+VALIDATION_CAPTIONS = {
+    "pose_errors": "Position (mm) and orientation (mrad) error of every held-out pose, per geometry.",
+    "distributions": "Distribution of the held-out pose errors per geometry (geometries a decade or more "
+    "apart: a logarithmic axis, each geometry with its own logarithmic bins, so both show their shape).",
+}
+
+#: At most this many rows in a per-pose table (the worst poses; a note says so).
+MAX_POSE_ROWS = 2000
+
+#: Correlation matrices of more parameters than this span the page's width.
+WIDE_CORRELATION = 24
+
+
+# -- identify ------------------------------------------------------------------------------------
+
+
+def identification_report(
+    result: Any, inputs: Mapping[str, Any] | None = None, title: str = ""
+) -> dict[str, Any]:
+    """Everything the identify page shows, from an identification (any instrument, any number
+    of sessions); ``inputs`` names the files, options and versions that produced the result."""
+    summary = result.to_dict()
+    estimator = ESTIMATORS.get(summary["method"])
+    if estimator is not None:
+        summary["method_label"] = f"{estimator.name}: {estimator.label}"
+    figures = {"parameter_changes": fig.svg(fig.parameter_changes(summary))}
+    before, after = summary.get("pose_rms_before"), summary.get("pose_rms_after")
+    if before is not None and after is not None:
+        marked = {"outlier (left out)": summary["outliers"], "flagged": summary["flagged"]}
+        figures["pose_residuals"] = fig.svg(fig.pose_residuals(summary["ids"], before, after, marked))
+    figures["correlation"] = fig.svg(fig.correlation(summary["names"], summary["correlation"]))
+    figures["singular_values"] = fig.svg(fig.singular_values(summary["singular_values"], RANK_RTOL))
+    if result.poses is not None:
+        figures["workspace"] = fig.svg(
+            fig.workspace_poses(result.poses, result.start.workspace, "Poses of the measurements")
+        )
+    name = result.start.name or "geometry"
+    sessions = summary["sessions"]
+    what = sessions[0]["description"] if len(sessions) == 1 else f"{len(sessions)} sessions"
+    return {
+        "kind": "identification",
+        "title": title or f"Calibration of {name}",
+        "subtitle": (
+            f"{summary['poses']} poses ({what}), {len(summary['names'])} parameters, estimator "
+            f"{summary['method']}"
+        ),
+        "result": summary,
+        "figures": figures,
+        "wide": ["correlation"] if len(summary["names"]) > WIDE_CORRELATION else [],
+        "inputs": dict(inputs or {}),
+    }
+
+
+def _verdict(result: Mapping[str, Any]) -> str:
+    verdict = result.get("verdict")
+    if verdict is None:
+        return verdict_block("not assessed", ["this result carries no verdict"])
+    return verdict_block(verdict, result.get("reasons", ()))
+
+
+def fit_statistics(result: Mapping[str, Any]) -> dict[str, Any]:
+    """The fit statistics shown on the identify page, labelled (the noise has its own section)."""
+    sessions = result.get("sessions") or []
+    rows: dict[str, Any] = {
+        "estimator": result.get("method_label", result.get("method", "-")),
+        "measurement": "; ".join(s["description"] for s in sessions) or result.get("model", "pose"),
+        "poses": result.get("poses"),
+        "parameters varied": result.get("n_parameters", len(result.get("names", ()))),
+        "degrees of freedom": result.get("dof"),
+        "leg RMS before (mm)": result.get("leg_rms_before"),
+        "leg RMS after (mm)": result.get("leg_rms_after"),
+        "reduced chi-square": result.get("reduced_chi_square"),
+        "rank": result.get("rank"),
+        "iterations": result.get("iterations"),
+        "solver status": result.get("message"),
+    }
+    if result.get("outliers"):
+        rows["outliers removed (pose ids)"] = " ".join(map(str, result["outliers"]))
+    if result.get("flagged"):
+        rows["poses flagged (ids)"] = " ".join(map(str, result["flagged"]))
+    return {k: v for k, v in rows.items() if v is not None}
+
+
+def _sigma(value: Any, unit: str) -> tuple[str, str]:
+    """A noise σ for a table: angles in mrad."""
+    if unit == "rad":
+        return fmt(None if value is None else value * 1e3), "mrad"
+    return fmt(value), unit
+
+
+def noise_rows(result: Mapping[str, Any]) -> tuple[list[str], list[tuple[Any, ...]], str]:
+    """``(columns, rows, note)`` of the noise the identification used: every group of every
+    session, learned (σ and its standard error) or given (and what the data say of it)."""
+    noise = result.get("noise")
+    if not noise:
+        return [], [], "no noise model: the estimator weighs every residual alike"
+    if noise.get("source") == "estimated" and noise.get("groups"):
+        rows = []
+        for g in noise["groups"]:
+            sigma, unit = _sigma(g["sigma"], g["unit"])
+            err, _ = _sigma(g["stderr"], g["unit"])
+            how = (
+                "learned from the data" if g["estimated"] else "not learned: too few data (start value kept)"
+            )
+            rows.append((g["session"], g["label"], sigma, err if g["estimated"] else "-", unit, how))
+        state = result.get("noise_estimate") or {}
+        note = "Learned from the data (the default without --noise): σ of each group with its standard error."
+        if state.get("converged") is False:
+            note += f" The estimate did not converge in {state.get('iterations')} iterations."
+        return ["session", "group", "σ", "std. error", "unit", "source"], rows, note
+    check = result.get("noise_check") or {}
+    dist = noise.get("distribution", "")
+    if check:
+        rows = []
+        for group, c in check.items():
+            unit = "rad" if group.split()[-1] in ("orientation", "angle") else "mm"
+            given, unit_shown = _sigma(c["given"], unit)
+            data, _ = _sigma(c["given"] * c["ratio"], unit)
+            verdict = "disagrees" if c.get("disagrees") else "agrees"
+            rows.append((group, given, data, unit_shown, fmt(c["ratio"], 3), fmt(c["p_value"], 2), verdict))
+        columns = ["group", "given σ", "σ the data show", "unit", "ratio", "p-value", "the data"]
+        return columns, rows, f"Given, not learned ({dist}), as standard deviations; tested against the data."
+    rows = []
+    for s in result.get("sessions") or [{"label": "", "noise": noise}]:
+        for group, unit in (("leg", "mm"), ("position", "mm"), ("orientation", "rad")):
+            sigma, shown = _sigma((s.get("noise") or noise).get(group), unit)
+            rows.append((s["label"], group, sigma, shown))
+    return (
+        ["session", "group", "given σ", "unit"],
+        rows,
+        f"Given with --noise ({dist}), as standard deviations.",
+    )
+
+
+def _noise_section(result: Mapping[str, Any]) -> str:
+    columns, rows, note = noise_rows(result)
+    table = data_table(columns, rows, sortable=False, table_id="noise") if rows else ""
+    return section("Noise", table + f'<p class="muted">{esc(note)}</p>', "noise-section")
+
+
+def session_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
+    """Rows ``(session, instrument, observations, frame)`` of the sessions table."""
+    rows = []
+    for s in result.get("sessions") or []:
+        reg = s.get("registration")
+        if reg is None:
+            frame = "given" if s.get("varied") or s.get("instrument") != "pose" else "the base frame"
+        else:
+            angle = (
+                f", orientation RMS {fmt(reg['angle_rms_rad'] * 1e3)} mrad" if "angle_rms_rad" in reg else ""
+            )
+            unit = "poses" if "tool" in reg else "points"
+            frame = (
+                f"auto: registered from {reg['points']} {unit}, residual RMS {fmt(reg['rms_mm'])} mm, "
+                f"max {fmt(reg['max_mm'])} mm{angle}"
+            )
+        rows.append((s["label"], s["description"], s["observations"], frame))
+    return rows
+
+
+def setup_rows(session: Mapping[str, Any]) -> list[tuple[Any, ...]]:
+    """Rows ``(name, value, std. error, unit)`` of a session's calibrated setup: degrees for
+    the instrument angles, mm otherwise."""
+    rows = []
+    for name, item in session["setup"].items():
+        if name in session["varied"]:
+            unit = UNIT_WORDS[parameter_unit(name)]
+            rows.append((name, display(name, item["value"]), display(name, item["stderr"]), unit))
+    return rows
+
+
+def _sessions_section(result: Mapping[str, Any]) -> str:
+    sessions = result.get("sessions") or []
+    if not sessions:
+        return ""
+    columns = ("session", "instrument", "observations", "instrument frame")
+    parts = [data_table(columns, session_rows(result), sortable=False, table_id="sessions")]
+    gauges = result.get("gauges") or []
+    if gauges:
+        parts.append(
+            f"<p><strong>Gauge freedoms</strong>: {len(gauges)} combinations no data can determine "
+            f"({esc(', '.join(gauges))}), removed by the {esc(result.get('convention', ''))}. Rank, standard "
+            "errors and bounds are those of the gauge-fixed parameters.</p>"
+        )
+    else:
+        parts.append("<p><strong>Gauge freedoms</strong>: none.</p>")
+    for k, s in enumerate(sessions):
+        rows = setup_rows(s)
+        held = [n for n in s["setup"] if n not in s["varied"]]
+        if rows:
+            parts.append(f"<h3>Calibrated setup: {esc(s['label'])}</h3>")
+            parts.append(
+                data_table(
+                    ("quantity", "value", "std. error", "unit"),
+                    rows,
+                    sortable=False,
+                    table_id=f"setup-{k + 1}",
+                )
+            )
+            if held:
+                parts.append(f'<p class="muted">Held exactly: {esc(", ".join(held))}.</p>')
+        elif held:
+            parts.append(
+                f'<p class="muted">{esc(s["label"])}: the instrument setup is held exactly '
+                "(nothing of it is identified).</p>"
+            )
+    return section("Sessions", "\n".join(parts), "sessions-section")
+
+
+def parameter_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
+    """Rows ``(name, unit, nominal, identified, change, stderr, bound)`` of the parameter
+    table, in the display unit of each parameter (degrees for instrument angles)."""
+    names = result.get("names") or list(result.get("parameters", {}))
+    start, values = result.get("start", {}), result.get("parameters", {})
+    stderr, bound = result.get("stderr", {}), result.get("bound") or {}
+    rows = []
+    for name in names:
+        value, nominal = values.get(name), start.get(name)
+        change = value - nominal if value is not None and nominal is not None else None
+        shown = [display(name, v) for v in (nominal, value, change, stderr.get(name), bound.get(name))]
+        rows.append((name, UNIT_WORDS[parameter_unit(name)], *shown))
+    return rows
+
+
+def identification_page(report: Mapping[str, Any]) -> str:
+    """The page of ``hexcal identify --html``: the verdict (failures first), statistics, noise,
+    sessions, parameters, figures, inputs."""
+    result = report.get("result", {})
+    angles = any(is_angle(n) for n in result.get("names") or result.get("parameters", {}))
+    units = "Lengths in mm, gains dimensionless" + (", instrument angles in degrees" if angles else "")
+    sections = [
+        _verdict(result),
+        section("Fit statistics", key_value_table(fit_statistics(result)), "statistics"),
+        _noise_section(result),
+        _sessions_section(result),
+        section(
+            "Parameters",
+            data_table(
+                ("parameter", "unit", "nominal", "identified", "change", "std. error", "Cramér–Rao σ"),
+                parameter_rows(result),
+                table_id="parameters",
+                scroll=True,
+            )
+            + f'<p class="muted">{units}. Click a column to sort.</p>',
+            "parameters-section",
+        ),
+    ]
+    figures = report.get("figures", {})
+    if figures:
+        grid = figure_grid(figures, IDENTIFICATION_CAPTIONS, report.get("wide", ()))
+        sections.append(section("Figures", grid, "figures"))
+    sections.append(section("Inputs", inputs_table(report.get("inputs", {})), "inputs"))
+    title = report.get("title", "hexcal calibration report")
+    return html_page(title, [s for s in sections if s], report.get("subtitle", ""))
+
+
+# -- validate ------------------------------------------------------------------------------------
+
+
+def validation_report(
+    results: Mapping[str, Any], inputs: Mapping[str, Any] | None = None, title: str = ""
+) -> dict[str, Any]:
+    """Everything the validate page shows: summaries and per-pose errors by geometry name."""
+    dicts = {name: r.to_dict() for name, r in results.items()}
+    first_result = next(iter(results.values()))
+    first = next(iter(dicts.values()))
+    figures = {
+        "pose_errors": fig.svg(fig.validation_errors(first["ids"], dicts)),
+        "distributions": fig.svg(fig.validation_distributions(dicts)),
+    }
+    instrument = getattr(first_result, "instrument", "")
+    return {
+        "kind": "validation",
+        "title": title or "Validation on held-out measurements",
+        "subtitle": f"{len(first['ids'])} held-out poses" + (f" ({instrument})" if instrument else ""),
+        "instrument": instrument,
+        "results": dicts,
+        "figures": figures,
+        "inputs": dict(inputs or {}),
+    }
+
+
+def summary_rows(results: Mapping[str, Mapping[str, Any]]) -> list[tuple[Any, ...]]:
+    """Rows of the validate summary, one column per geometry (orientation in mrad); a row
+    no geometry has a value for is left out, the instrument's own errors follow."""
+    summaries = [r["summary"] for r in results.values()]
+    rows = validation_rows(list(summaries[0]) if summaries else [])
+    out = []
+    for label, key, scale in rows:
+        values = [s.get(key) for s in summaries]
+        finite = [v for v in values if isinstance(v, int | float) and v == v and abs(v) != float("inf")]
+        if finite:
+            out.append((label, *(None if v is None else v * scale for v in values)))
+    return out
+
+
+def validation_page(report: Mapping[str, Any]) -> str:
+    """The page of ``hexcal validate --html``: summary side by side, per-pose table, figures
+    (orientation errors in mrad in the tables as in the figures)."""
+    results = report.get("results", {})
+    columns = ("", *results)
+    summary = data_table(columns, summary_rows(results), sortable=False, table_id="summary-table")
+    sections = [section("Summary", summary, "summary")]
+    first = next(iter(results.values()), None)
+    if first is not None:
+        per_pose = [
+            (
+                pid,
+                *(
+                    v
+                    for r in results.values()
+                    for v in (
+                        r["position_error"][k],
+                        None if r["orientation_error"][k] is None else r["orientation_error"][k] * 1e3,
+                    )
+                ),
+            )
+            for k, pid in enumerate(first["ids"])
+        ]
+        cols = ["pose"] + [f"{name} {q}" for name in results for q in ("position (mm)", "orientation (mrad)")]
+        note = ""
+        if len(per_pose) > MAX_POSE_ROWS:
+            # a table of 10,000 rows slows the page down: keep the worst poses, say so
+            per_pose = sorted(per_pose, key=lambda row: -row[1])[:MAX_POSE_ROWS]
+            note = (
+                f'<p class="muted" id="poses-note">The {MAX_POSE_ROWS} poses with the largest '
+                f"{esc(next(iter(results)))} position error of {len(first['ids'])}; the full table: "
+                "<code>hexcal validate --out FILE</code>.</p>"
+            )
+        table = data_table(cols, per_pose, table_id="poses", scroll=True)
+        sections.append(section("Per pose", table + note, "poses"))
+    figures = report.get("figures", {})
+    if figures:
+        sections.append(section("Figures", figure_grid(figures, VALIDATION_CAPTIONS), "figures"))
+    sections.append(section("Inputs", inputs_table(report.get("inputs", {})), "inputs"))
+    return html_page(report.get("title", "hexcal validation report"), sections, report.get("subtitle", ""))
