@@ -219,6 +219,7 @@ def estimate(
             robust=robust,
             diagnose=run_diagnosis,
             noise=noises,
+            reference=_as_given(used, given),
         )
         result = result.replace(verdict=judged)
     return result
@@ -233,6 +234,17 @@ def _at_result(problem: Problem, result: IdentificationResult) -> Problem:
         for p, inst in zip(problem.parts, problem.instruments(full), strict=True)
     ]
     return Problem(problem.geometry(full), sessions, parameters=problem.parameters.with_values(full))
+
+
+def _as_given(problem: Problem, given: Sequence[Session]) -> np.ndarray:
+    """The varied parameters as the user gave them (each instrument's setup before the data
+    registered it): what a change is measured from. A free tool's registered start can be tens
+    of millimetres from the setup's tool (the nominal machine's errors through the platform's
+    small rotations); the calibrated tool is judged against the setup, not that start."""
+    full = np.array(problem.full0)
+    for part, session in zip(problem.parts, given, strict=True):
+        full[part.block] = session.instrument.parameters().values
+    return full[problem.mask]
 
 
 def _flagged(problem: Problem, result: IdentificationResult, method: str, noise: Any, alpha: float) -> tuple:

@@ -254,6 +254,7 @@ def assess(
     diagnose: Any = None,
     accuracy: bool = True,
     noise: Any = None,
+    reference: NDArray[np.float64] | None = None,
 ) -> Verdict:
     """The verdict of an identification (module docstring).
 
@@ -281,6 +282,9 @@ def assess(
         Compute the predicted pose accuracy over the workspace.
     noise : NoiseModel or sequence, optional
         The noise the screening of instruments that do not give the pose whitens with.
+    reference : ndarray, optional
+        The values changes are measured from (the setups as given, before registration);
+        default the start values.
     """
     reasons: list[Reason] = []
     reasons += _chi_square_reasons(result, alpha) if noise_estimate is None else []
@@ -299,7 +303,7 @@ def assess(
                 {"combination": combo, "sigma_over_limit": sig},
             )
         )
-    change = np.asarray(result.values) - start_values
+    change = np.asarray(result.values) - (start_values if reference is None else reference)
     limits = change_limits(result.start, names, max_change, start_values)
     over = np.flatnonzero(np.abs(change) > limits)
     if over.size:
