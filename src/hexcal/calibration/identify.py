@@ -42,7 +42,7 @@ from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import HexcalError, UsageError
 from hexcal.estimation.least_squares import fit_least_squares
-from hexcal.estimation.likelihood import fit_ml, session_noises
+from hexcal.estimation.likelihood import ml_misfit, session_noises
 from hexcal.estimation.noise_check import NoiseCheck, check_noise
 from hexcal.estimation.noise_estimation import NoiseEstimate, estimate_noise
 from hexcal.estimation.outliers import DEFAULT_ALPHA, SCREEN_THRESHOLD, pose_diagnostics
@@ -56,7 +56,7 @@ from hexcal.instruments.base import MeasurementModel, Session
 #: ``noise=`` value (and ``default_noise``) that learns the noise from the data.
 AUTO = "auto"
 
-#: Evaluations a diagnosis refit may take (a variant that needs more is no explanation).
+#: Evaluations a diagnosis refit may take (its last iterate counts: the variants are compared).
 _DIAGNOSIS_NFEV = 60
 
 
@@ -286,7 +286,10 @@ def _refit(noises: tuple[NoiseModel, ...]) -> Any:
     """The diagnoses' refit: least squares on the leg lengths where every instrument gives the
     pose, else maximum likelihood under ``noises``; unknown frames registered again."""
 
-    def refit(start: Geometry, sessions: Sequence[Session], names: tuple[str, ...]) -> Quality:
+    def refit(
+        start: Geometry, sessions: Sequence[Session], names: tuple[str, ...], max_nfev: int | None = None
+    ) -> Quality:
+        nfev = _DIAGNOSIS_NFEV if max_nfev is None else max_nfev
         try:
             registered, _ = register_sessions(start, sessions)
             base = Problem(start, registered)
@@ -295,10 +298,11 @@ def _refit(noises: tuple[NoiseModel, ...]) -> Any:
             )
             problem = Problem(start, registered, parameters=base.parameters.with_vary(vary))
             if problem.determines_pose:
-                res = fit_least_squares(problem, "length", max_nfev=_DIAGNOSIS_NFEV)
+                res = fit_least_squares(problem, "length", max_nfev=nfev, truncate=True)
                 return Quality(res.rms_after, float(np.sum(res.residuals**2)), res.dof, "mm")
-            res = fit_ml(problem, noises, max_nfev=_DIAGNOSIS_NFEV)
-            return Quality(res.rms_after, float(np.sum(res.residuals**2)), res.dof, "(whitened)")
+            problem.check_size()
+            value, sse, dof = ml_misfit(problem, noises, max_nfev=nfev)
+            return Quality(value, sse, dof, "(whitened)")
         except (HexcalError, ValueError, np.linalg.LinAlgError):
             return Quality(float("inf"), float("inf"), 0)
 
