@@ -40,7 +40,7 @@ from hexcal.calibration.verdict import MAX_CHANGE, assess
 from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
-from hexcal.errors import HexcalError, UsageError
+from hexcal.errors import GeometryError, HexcalError, IdentificationError, InputError, UsageError
 from hexcal.estimation.least_squares import fit_least_squares
 from hexcal.estimation.likelihood import ml_misfit, session_noises
 from hexcal.estimation.noise_check import NoiseCheck, check_noise
@@ -58,6 +58,10 @@ AUTO = "auto"
 
 #: Evaluations a diagnosis refit may take (its last iterate counts: the variants are compared).
 _DIAGNOSIS_NFEV = 60
+
+#: How a fit fails outright (a solver that did not converge, a geometry beyond validity, a
+#: degenerate solution): the diagnoses then look for the cause among re-readings of the data.
+_FIT_FAILURES = (IdentificationError, GeometryError, InputError, np.linalg.LinAlgError)
 
 
 def register_sessions(start: Geometry, sessions: Sequence[Session]) -> tuple[list[Session], tuple[Any, ...]]:
@@ -164,49 +168,54 @@ def estimate(
     problem = Problem(start, sessions, mask=mask, parameters=parameters, fit=fit, fix=fix)
     if estimator.needs_pose and not problem.determines_pose:
         estimator.fit(problem)  # refuses in one line, naming the session
-    noise_estimate = noise_check = None
-    flagged: tuple[str, ...] = ()
-    if robust:
-        problem.check_size()  # too few poses by the data's count, before any is set aside
-        if auto:
-            noise_estimate = _robust_noise(problem, options)
-            noise = noise_estimate.noises
-        with np.errstate(over="ignore"):  # a gross outlier's deletion statistic may be inf
-            robust_fit = identify_robust(
-                start, problem=problem, method=method, alpha=alpha, noise=noise, **options
-            )
-        result, used = robust_fit.result, robust_fit.problem
-    else:
-        if auto:
-            noise_estimate, ml_fit = estimate_noise(problem, **options)
-            noise = noise_estimate.noises
-            result = ml_fit if method == "ml" else estimator.fit(problem, noise, **options)
+    try:
+        noise_estimate = noise_check = None
+        flagged: tuple[str, ...] = ()
+        if robust:
+            problem.check_size()  # too few poses by the data's count, before any is set aside
+            if auto:
+                noise_estimate = _robust_noise(problem, options)
+                noise = noise_estimate.noises
+            with np.errstate(over="ignore"):  # a gross outlier's deletion statistic may be inf
+                robust_fit = identify_robust(
+                    start, problem=problem, method=method, alpha=alpha, noise=noise, **options
+                )
+            result, used = robust_fit.result, robust_fit.problem
         else:
-            result = estimator.fit(problem, noise, **options)
-            if verdict:
-                noise_check = _check(problem, noise, result, alpha)
-        used = problem
-        if diagnose:
-            flagged = _flagged(problem, result, method, noise, alpha)
-    noises = session_noises(used, noise)
-    bound = None
-    if with_bound:
-        poses = None if used.determines_pose else result.poses
-        bound = bound_stderr(_at_result(used, result), noises, poses=poses)
-    result = result.replace(
-        bound=bound,
-        noise=noises[0],
-        noises=noises,
-        flagged=flagged,
-        noise_source="estimated" if auto else "given",
-        noise_estimate=noise_estimate,
-        noise_check=noise_check,
-        registrations=registrations,
-    )
+            if auto:
+                noise_estimate, ml_fit = estimate_noise(problem, **options)
+                noise = noise_estimate.noises
+                result = ml_fit if method == "ml" else estimator.fit(problem, noise, **options)
+            else:
+                result = estimator.fit(problem, noise, **options)
+                if verdict:
+                    noise_check = _check(problem, noise, result, alpha)
+            used = problem
+            if diagnose:
+                flagged = _flagged(problem, result, method, noise, alpha)
+        noises = session_noises(used, noise)
+        bound = None
+        if with_bound:
+            poses = None if used.determines_pose else result.poses
+            bound = bound_stderr(_at_result(used, result), noises, poses=poses)
+        result = result.replace(
+            bound=bound,
+            noise=noises[0],
+            noises=noises,
+            flagged=flagged,
+            noise_source="estimated" if auto else "given",
+            noise_estimate=noise_estimate,
+            noise_check=noise_check,
+            registrations=registrations,
+        )
+    except _FIT_FAILURES as exc:
+        if verdict:  # name the likely cause (a unit, an Euler sequence) in the one line
+            _explain_failure(exc, problem, given, noise if not auto else None)
+        raise
     if verdict:
 
         def run_diagnosis(bad: bool) -> list:
-            return diagnosis.diagnose(result, given, _refit(noises), bad)
+            return diagnosis.diagnose(result, given, _refit(_diagnosis_noises(noises, auto)), bad)
 
         judged = assess(
             result,
@@ -280,6 +289,22 @@ def _robust_noise(problem: Problem, options: dict) -> NoiseEstimate:
     keep = np.ones(len(scores), dtype=bool)
     keep[drop[scores[drop] > SCREEN_THRESHOLD]] = False
     return estimate_noise(problem.subset(keep), **options)[0]
+
+
+def _explain_failure(exc: Exception, problem: Problem, given: Sequence[Session], noise: Any) -> None:
+    """Raise the failure again with its likely cause (a unit or Euler re-reading of the data that
+    fits, :func:`hexcal.calibration.diagnosis.explain_failure`) when one is found."""
+    noises = _diagnosis_noises(session_noises(problem, noise), noise is None)
+    cause = diagnosis.explain_failure(problem.start, problem.names, given, _refit(noises))
+    if cause is not None:
+        text = str(exc) if isinstance(exc, HexcalError) else f"the computation failed numerically ({exc})"
+        raise IdentificationError(f"{text}; likely cause: {cause.message}") from exc
+
+
+def _diagnosis_noises(noises: tuple[NoiseModel, ...], learned: bool) -> tuple[NoiseModel, ...]:
+    """The noise the diagnoses' refits weigh with: the given one, or the default noise model
+    when it was learned (a learned noise has absorbed the error a diagnosis looks for)."""
+    return tuple(NoiseModel() for _ in noises) if learned else noises
 
 
 def _refit(noises: tuple[NoiseModel, ...]) -> Any:
