@@ -206,11 +206,15 @@ def validation_distributions(errors: Mapping[str, Mapping[str, Any]]) -> Any:
         (axes[0], "position_error", 1.0, "position error (mm)"),
         (axes[1], "orientation_error", 1e3, "orientation error (mrad)"),
     ):
+        # NaN where the instrument gives no platform pose (one target): nothing to count
         data = [np.asarray(e[key], dtype=float) * scale for e in errors.values()]
-        top = max(float(np.max(d)) for d in data) if data else 1.0
+        data = [d[np.isfinite(d)] for d in data]
+        top = max((float(np.max(d)) for d in data if d.size), default=1.0)
         bins = np.linspace(0, top * 1.02 if top > 0 else 1.0, 30)
         for (name, _), values, style in zip(errors.items(), data, ("-", "--", ":"), strict=False):
             ax.hist(values, bins=bins, histtype="step", ls=style, lw=1.5, label=name)
+        if not any(d.size for d in data):
+            ax.text(0.5, 0.5, "no platform pose from this instrument", ha="center", transform=ax.transAxes)
         ax.set_xlabel(label)
         ax.set_ylabel("poses")
     axes[1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)

@@ -28,6 +28,7 @@ from hexcal.report.html import (
     section,
     verdict_block,
 )
+from hexcal.report.text import validation_rows
 
 #: Captions of the identification figures, by figure name.
 IDENTIFICATION_CAPTIONS = {
@@ -137,19 +138,10 @@ def identification_page(report: Mapping[str, Any]) -> str:
 def validation_page(report: Mapping[str, Any]) -> str:
     """The page of ``hexcal validate --html``: summary side by side, per-pose table, figures."""
     results = report.get("results", {})
-    keys = ("leg_rms", "leg_max", "position_rms", "position_max", "orientation_rms", "orientation_max")
-    labels = (
-        "leg residual RMS (mm)",
-        "leg residual max (mm)",
-        "position error RMS (mm)",
-        "position error max (mm)",
-        "orientation error RMS (rad)",
-        "orientation error max (rad)",
-    )
     columns = ("", *results)
-    rows = [
-        (label, *(r["summary"][k] for r in results.values())) for label, k in zip(labels, keys, strict=True)
-    ]
+    summaries = [r["summary"] for r in results.values()]
+    # the rows of the text report: the instrument's own errors too, none the instrument cannot give
+    rows = [(label, *(s.get(k, float("nan")) for s in summaries)) for label, k in validation_rows(summaries)]
     sections = [section("Summary", data_table(columns, rows, sortable=False), "summary")]
     first = next(iter(results.values()), None)
     if first is not None:

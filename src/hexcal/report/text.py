@@ -6,6 +6,7 @@ Table I and the Monte Carlo study table. Each renders a plain dictionary (see
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 
@@ -306,6 +307,34 @@ def identification_text(data: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def validation_rows(summaries: Sequence[Mapping[str, Any]]) -> list[tuple[str, str]]:
+    """``(label, key)`` of the rows of a validation table of ``summaries`` side by side
+    (``ValidationResult.summary()``): leg residuals, platform pose errors, then the instrument's
+    own errors; a row no summary has a value for (a platform pose from one target) is left out.
+
+    >>> validation_rows([{"poses": 2, "position_rms": float("nan"), "instrument_target_rms": 0.1}])
+    [('target distance RMS (mm)', 'instrument_target_rms')]
+    """
+    rows = [
+        ("leg residual RMS (mm)", "leg_rms"),
+        ("leg residual max (mm)", "leg_max"),
+        ("position error RMS (mm)", "position_rms"),
+        ("position error max (mm)", "position_max"),
+        ("orientation RMS (rad)", "orientation_rms"),
+        ("orientation max (rad)", "orientation_max"),
+    ]
+    labels = {"target": "target distance", "position": "tool position", "orientation": "tool angle"}
+    for key in summaries[0] if summaries else ():
+        if key.startswith("instrument_") and key.endswith("_rms"):
+            name = key.removeprefix("instrument_").removesuffix("_rms")
+            unit = "rad" if name == "orientation" else "mm"
+            rows.append((f"{labels.get(name, name)} RMS ({unit})", key))
+            rows.append((f"{labels.get(name, name)} max ({unit})", key.replace("_rms", "_max")))
+    return [
+        (label, key) for label, key in rows if any(math.isfinite(d.get(key, float("nan"))) for d in summaries)
+    ]
+
+
 def validation_text(data: dict[str, Any]) -> str:
     """Side-by-side table of validation summaries (:func:`hexcal.report.validation_dict`);
     a row the instrument cannot give (a platform pose from one target) is left out.
@@ -321,25 +350,8 @@ def validation_text(data: dict[str, Any]) -> str:
     where = "" if what == "full pose in the base frame" else f" ({what})"
     lines = [f"Validation on {calibrated['poses']} held-out pose(s){where}"]
     lines.append(f"    {'':<26}" + "".join(f"{name:>14}" for name, _ in cols))
-    rows = [
-        ("leg residual RMS (mm)", "leg_rms"),
-        ("leg residual max (mm)", "leg_max"),
-        ("position error RMS (mm)", "position_rms"),
-        ("position error max (mm)", "position_max"),
-        ("orientation RMS (rad)", "orientation_rms"),
-        ("orientation max (rad)", "orientation_max"),
-    ]
-    labels = {"target": "target distance", "position": "tool position", "orientation": "tool angle"}
-    for key in calibrated:
-        if key.startswith("instrument_") and key.endswith("_rms"):
-            name = key.removeprefix("instrument_").removesuffix("_rms")
-            unit = "rad" if name == "orientation" else "mm"
-            rows.append((f"{labels.get(name, name)} RMS ({unit})", key))
-            rows.append((f"{labels.get(name, name)} max ({unit})", key.replace("_rms", "_max")))
-    for label, key in rows:
+    for label, key in validation_rows([d for _, d in cols]):
         values = [d.get(key, float("nan")) for _, d in cols]
-        if all(not math.isfinite(v) for v in values):
-            continue
         lines.append(f"    {label:<26}" + "".join(f"{v:>14.4g}" for v in values))
     return "\n".join(lines)
 
