@@ -226,14 +226,22 @@ def group_statistics(
 
 
 def _helmert_ratio(stats: GroupStatistics, estimated: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """Helmert's update ``α = M⁻¹ Ω`` of the variance ratios (``σ_new = sqrt(α) σ``); a
-    negative ratio (a group with no noise) is 0, floored by the caller."""
+    """Helmert's update ``α = M⁻¹ Ω`` of the variance ratios (``σ_new = sqrt(α) σ``).
+
+    Where it gives a group a negative variance, the step is Förstner's ``σ_new² = σ² Ω_g / r_g``
+    instead: positive, with the same fixed point (``Ω_g = r_g``). A gross error makes the
+    Helmert step negative for the group that does not hold it (the legs, when one target
+    observation is 1.5 mm off); held at its floor, that group then made the fit singular and the
+    iteration diverge to 1e100. A group with no noise at all still falls to its floor, faster
+    than geometrically."""
     ratio = np.ones(len(stats.groups))
     if stats.helmert is None:
         return stats.ratio
     sub = stats.helmert[np.ix_(estimated, estimated)]
     alpha = np.linalg.lstsq(sub, stats.omega[estimated], rcond=None)[0]
-    ratio[estimated] = np.sqrt(np.maximum(alpha, 0.0))
+    if np.any(alpha <= 0):
+        return np.where(estimated, stats.ratio, 1.0)
+    ratio[estimated] = np.sqrt(alpha)
     return ratio
 
 
@@ -369,14 +377,20 @@ def estimate_noise(
             for part, own in zip(inner.parts, poses, strict=True):
                 part.poses = own
         step = np.linalg.lstsq(inner.jacobian(x), inner.residuals(x), rcond=None)[0]
-        x = x - step
-        stats, _, _ = _statistics(problem, inner, x, keys)
+        moved = x - step
+        try:
+            if not np.all(np.isfinite(moved)):
+                raise np.linalg.LinAlgError("the step is not finite")
+            stats, _, _ = _statistics(problem, inner, moved, keys)
+        except np.linalg.LinAlgError:
+            break  # the step diverges (a gross error): keep the last finite values
+        x = moved
         if stats.keys != keys:
             raise IdentificationError("variance components need a diagonal instrument covariance")
         poses = [part.poses for part in inner.parts]
         estimated = stats.redundancy >= MIN_REDUNDANCY
         new = np.where(estimated, np.maximum(sigmas * _helmert_ratio(stats, estimated), floors), sigmas)
-        if not np.all(np.isfinite(new)) or not np.all(np.isfinite(x)):
+        if not np.all(np.isfinite(new)):
             break  # the iteration diverges (a gross error): keep the last finite values
         change = float(np.max(np.abs(new / sigmas - 1)))
         sigmas = new
