@@ -36,11 +36,12 @@ from numpy.typing import ArrayLike
 
 from hexcal.calibration import diagnosis
 from hexcal.calibration.diagnosis import Quality
-from hexcal.calibration.verdict import MAX_CHANGE, assess
+from hexcal.calibration.verdict import FAIL_FACTOR, MAX_CHANGE, assess, undetermined
 from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import GeometryError, HexcalError, IdentificationError, InputError, UsageError
+from hexcal.estimation.gauge import gauge_freedoms, unidentifiable
 from hexcal.estimation.least_squares import fit_least_squares
 from hexcal.estimation.likelihood import ml_misfit, session_noises
 from hexcal.estimation.noise_check import NoiseCheck, check_noise
@@ -50,7 +51,7 @@ from hexcal.estimation.problem import Problem, as_sessions
 from hexcal.estimation.registry import DEFAULT_ESTIMATOR, get_estimator
 from hexcal.estimation.result import IdentificationResult
 from hexcal.estimation.robust import identify_robust, screen_poses
-from hexcal.estimation.uncertainty import bound_stderr
+from hexcal.estimation.uncertainty import bound_stderr, gauge_fixed_covariance, projected_jacobian
 from hexcal.instruments.base import MeasurementModel, Session
 
 #: ``noise=`` value (and ``default_noise``) that learns the noise from the data.
@@ -209,8 +210,8 @@ def estimate(
             registrations=registrations,
         )
     except _FIT_FAILURES as exc:
-        if verdict:  # name the likely cause (a unit, an Euler sequence) in the one line
-            _explain_failure(exc, problem, given, noise if not auto else None)
+        if verdict:  # name the likely cause (a unit, an Euler sequence, weak poses) in the one line
+            _explain_failure(exc, problem, given, noise if not auto else None, sigma_limit)
         raise
     if verdict:
 
@@ -291,14 +292,41 @@ def _robust_noise(problem: Problem, options: dict) -> NoiseEstimate:
     return estimate_noise(problem.subset(keep), **options)[0]
 
 
-def _explain_failure(exc: Exception, problem: Problem, given: Sequence[Session], noise: Any) -> None:
-    """Raise the failure again with its likely cause (a unit or Euler re-reading of the data that
-    fits, :func:`hexcal.calibration.diagnosis.explain_failure`) when one is found."""
+def _explain_failure(
+    exc: Exception, problem: Problem, given: Sequence[Session], noise: Any, sigma_limit: float
+) -> None:
+    """Raise the failure again with its likely cause when one is found: a unit or Euler
+    re-reading of the data that fits (:func:`hexcal.calibration.diagnosis.explain_failure`), or
+    else the combinations the poses do not determine (poses that barely rotate make the
+    solver run out of evaluations rather than the rank fall)."""
     noises = _diagnosis_noises(session_noises(problem, noise), noise is None)
     cause = diagnosis.explain_failure(problem.start, problem.names, given, _refit(noises))
+    text = str(exc) if isinstance(exc, HexcalError) else f"the computation failed numerically ({exc})"
     if cause is not None:
-        text = str(exc) if isinstance(exc, HexcalError) else f"the computation failed numerically ({exc})"
         raise IdentificationError(f"{text}; likely cause: {cause.message}") from exc
+    weak = _weak_combinations(problem, noises, sigma_limit)
+    if weak and "combination" not in text:
+        raise IdentificationError(f"{text}; {weak}") from exc
+
+
+def _weak_combinations(problem: Problem, noises: tuple[NoiseModel, ...], sigma_limit: float) -> str:
+    """The combinations the poses do not determine at the start (beyond the gauges, or with a
+    predicted σ beyond the fail limit of the verdict), named; empty when none."""
+    try:
+        jac = projected_jacobian(problem, noises)
+        gauge = gauge_freedoms(problem, problem.full0)
+        lost = unidentifiable(problem, jac, gauge)
+        if lost:
+            return f"not determined by these data: {lost[-1]} ({len(lost)} combination(s))"
+        cov = gauge_fixed_covariance(problem, jac, gauge)
+        values = problem.full0[problem.mask]
+        weak = [(s, c) for s, c in undetermined(cov, problem.names, sigma_limit, values) if s > FAIL_FACTOR]
+    except (HexcalError, ValueError, np.linalg.LinAlgError):
+        return ""
+    return "; ".join(
+        f"not determined by these data: {c} (predicted σ {s:.3g} × the limit of {sigma_limit:g} mm)"
+        for s, c in weak[:3]
+    )
 
 
 def _diagnosis_noises(noises: tuple[NoiseModel, ...], learned: bool) -> tuple[NoiseModel, ...]:
