@@ -11,12 +11,12 @@ default noise model:
 - **unfitted gains** (always, when the gains are fixed): the fit with the gains; a
   significant F test and a large drop of the sum of squares -> ``fit the gains:
   --fit joints,l0,gains``;
-- **units** (bad fits the gains do not explain): each session's data re-read as its
-  instrument suggests (lengths in metres or inches, angles in the other unit:
-  :meth:`MeasurementModel.variants`);
-- **Euler sequence** (the same fits, instruments that report angles): every other scipy Euler
-  sequence, each by a short refit (:data:`SCREEN_NFEV` evaluations), the best few in full;
-  says which one fits.
+- **units** (bad fits): each session's data re-read as its instrument suggests (lengths in
+  metres or inches, angles in the other unit: :meth:`MeasurementModel.variants`); named
+  instead of the gains when it explains the fit better;
+- **Euler sequence** (bad fits that neither explains, instruments that report angles): every
+  other scipy Euler sequence, each by a short refit (:data:`SCREEN_NFEV` evaluations), the
+  best few in full; says which one fits.
 
 A variant is named the likely cause when its residual RMS is below :data:`BETTER` times the
 original one. When the fit failed outright (:func:`explain_failure`), a variant that fits is
@@ -88,9 +88,17 @@ def diagnose(result: Any, sessions: Sequence[Any], refit: Refit, bad: bool = Tru
     if not np.isfinite(base.rms):
         return []
     out = _gains(start, names, sessions, refit, base)
-    if not bad or any(r.severity == "fail" for r in out):
-        return out  # a fit the gains explain (its residual more than halves) has no other cause
-    cause = _units(start, names, sessions, refit, base) or _euler(start, names, sessions, refit, base)
+    if not bad:
+        return out
+    unit = _units(start, names, sessions, refit, base)
+    if unit is not None:
+        # a unit that explains the fit better than the gains do is the cause (gains and l0
+        # absorb part of positions in metres)
+        gains = [r.data.get("rms_with_gains", np.inf) for r in out]
+        return [r for r, g in zip(out, gains, strict=True) if g < unit.data["rms_converted"]] + [unit]
+    if any(r.severity == "fail" for r in out):
+        return out  # the gains explain the fit (its residual more than halves): no Euler search
+    cause = _euler(start, names, sessions, refit, base)
     return out + ([cause] if cause is not None else [])
 
 
