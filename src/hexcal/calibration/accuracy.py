@@ -32,6 +32,7 @@ from hexcal.core import (
     workspace_corners,
 )
 from hexcal.core.machine import leg_parameter_jacobian, pose_frames
+from hexcal.core.noise import NoiseModel
 
 
 def machine_mask(
@@ -191,6 +192,56 @@ def without_rigid_motions(
     return proj @ covariance @ proj.T
 
 
+def accuracy_test_poses(geometry: Geometry, n_random: int = 200, seed: int = 0) -> NDArray[np.float64]:
+    """The test poses of the predicted accuracy: the workspace corners and ``n_random`` uniform
+    poses (seeded)."""
+    return np.concatenate([workspace_corners(geometry), random_poses(geometry, n_random, seed)])
+
+
+def predicted_instrument_accuracy(
+    geometry: Geometry,
+    instrument: Any,
+    setup: ArrayLike,
+    covariance: ArrayLike,
+    mask: ArrayLike,
+    setup_mask: ArrayLike,
+    n_random: int = 200,
+    seed: int = 0,
+) -> dict[str, float]:
+    """RMS and worst predicted error of what the instrument will read after calibration, in its
+    own terms: the values it predicts from the leg readings at the test poses
+    (:func:`accuracy_test_poses`) against the true ones.
+
+    To first order the prediction misses by ``δy = H_P E δθ + H_s δs`` (``E`` the map of
+    :func:`pose_error_map` for the machine parameters of ``mask``, ``H_P`` and ``H_s`` the
+    instrument's Jacobians with respect to the pose and to its own parameters of
+    ``setup_mask``), whose covariance follows from the parameters' ``covariance`` (machine then
+    instrument parameters, parameter units). It does not depend on the gauge convention: a
+    gauge changes no prediction. Per noise group of the instrument (``targets``: distance of a
+    target, mm; ``position``, mm; ``orientation``, rad): ``{label}_rms_{unit}`` and
+    ``{label}_max_{unit}``, and ``poses``.
+    """
+    poses = accuracy_test_poses(geometry, n_random, seed)
+    setup = np.asarray(setup, dtype=float)
+    e = pose_error_map(geometry, poses, mask)  # (t, 6, n)
+    h_pose = instrument.pose_jacobian(setup, poses, geometry.euler)  # (t, k, 6)
+    h_setup = instrument.setup_jacobian(setup, poses, geometry.euler)[:, :, np.asarray(setup_mask, bool)]
+    jac = np.concatenate([h_pose @ e, h_setup], axis=2)
+    var = np.einsum("tip,pq,tiq->ti", jac, np.asarray(covariance, dtype=float), jac)  # (t, k)
+    out: dict[str, float] = {}
+    labels = instrument.group_labels()
+    for name in instrument.noise_groups():
+        probe = {"position": 0.0, "orientation": 0.0} | {name: 1.0}
+        values = np.diag(instrument.covariance(NoiseModel(0.0, **probe, distribution="normal"))) != 0
+        points = max(int(values.sum()) // 3, 1)  # a position error is a 3D distance per point
+        err = np.sqrt(np.clip(var[:, values].sum(axis=1) / points, 0, None))
+        label, unit = labels.get(name, name), "rad" if name == "orientation" else "mm"
+        out[f"{label}_rms_{unit}"] = float(np.sqrt(np.mean(err**2)))
+        out[f"{label}_max_{unit}"] = float(err.max())
+    out["poses"] = len(poses)
+    return out
+
+
 def predicted_pose_accuracy(
     geometry: Geometry,
     covariance: ArrayLike,
@@ -210,7 +261,7 @@ def predicted_pose_accuracy(
     >>> acc["poses"], acc["position_rms_mm"] > 0
     (264, True)
     """
-    poses = np.concatenate([workspace_corners(geometry), random_poses(geometry, n_random, seed)])
+    poses = accuracy_test_poses(geometry, n_random, seed)
     position, orientation = predicted_pose_errors(geometry, poses, covariance, mask, rigid)
     return {
         "position_rms_mm": float(np.sqrt(np.mean(position**2))),

@@ -2,20 +2,27 @@
 
 Each diagnosis refits a variant of the data or the model with the fast estimator of the
 instruments (least squares on the leg lengths where every instrument gives the pose, else
-maximum likelihood under the fit's noise, with unknown frames registered again) and compares
-the residual RMS with the fit as given:
+maximum likelihood under the given noise, with unknown frames registered again) and compares
+the residual RMS with the fit as given. A noise learned from the data is no yardstick here: it
+has absorbed the very error a diagnosis looks for (positions in metres make a large position
+σ, wrong gains a large leg σ), so under a learned noise the refits weigh the groups with the
+default noise model:
 
 - **unfitted gains** (always, when the gains are fixed): the fit with the gains; a
   significant F test and a large drop of the sum of squares -> ``fit the gains:
   --fit joints,l0,gains``;
 - **units** (bad fits): each session's data re-read as its instrument suggests (lengths in
-  metres or inches, angles in the other unit: :meth:`MeasurementModel.variants`);
-- **Euler sequence** (bad fits, instruments that report angles): every other scipy Euler
-  sequence; says which one fits.
+  metres or inches, angles in the other unit: :meth:`MeasurementModel.variants`); named
+  instead of the gains when it explains the fit better;
+- **Euler sequence** (bad fits that neither explains, instruments that report angles): every
+  other scipy Euler sequence, each by a short refit (:data:`SCREEN_NFEV` evaluations), the
+  best few in full; says which one fits.
 
 A variant is named the likely cause when its residual RMS is below :data:`BETTER` times the
-original one. Imports :mod:`hexcal.core`, :mod:`hexcal.instruments`, :mod:`hexcal.estimation`
-and :mod:`hexcal.calibration.verdict`.
+original one. When the fit failed outright (:func:`explain_failure`), a variant that fits is
+named when it is below :data:`BETTER` times every other variant of its kind. Imports
+:mod:`hexcal.core`, :mod:`hexcal.instruments`, :mod:`hexcal.estimation` and
+:mod:`hexcal.calibration.verdict`.
 """
 
 from __future__ import annotations
@@ -52,8 +59,14 @@ class Quality:
         return f"{self.rms:.4g} {self.unit}".strip()
 
 
-#: ``refit(start, sessions, names) -> Quality``: a variant fitted with the fast estimator.
-Refit = Callable[[Geometry, Sequence[Any], tuple[str, ...]], Quality]
+#: ``refit(start, sessions, names, max_nfev=None) -> Quality``: a variant fitted with the fast
+#: estimator (at most ``max_nfev`` evaluations when given).
+Refit = Callable[..., Quality]
+
+#: Evaluations of the screening refit of every other Euler sequence; the best
+#: :data:`SCREEN_KEEP` of them are then refitted in full.
+SCREEN_NFEV = 8
+SCREEN_KEEP = 2
 
 
 def diagnose(result: Any, sessions: Sequence[Any], refit: Refit, bad: bool = True) -> list[Reason]:
@@ -70,67 +83,120 @@ def diagnose(result: Any, sessions: Sequence[Any], refit: Refit, bad: bool = Tru
     bad : bool
         The fit is suspect: also try units and Euler sequences.
     """
-    from scipy.special import fdtr
-
     start, names = result.start, tuple(result.names)
     base = refit(start, sessions, names)
     if not np.isfinite(base.rms):
         return []
-    out: list[Reason] = []
-    gains = start.leg_model.groups()["gains"]
-    if not set(gains) & set(names):
-        with_gains = names + tuple(gains)
-        fitted = refit(start, sessions, with_gains)
-        if np.isfinite(fitted.rms) and fitted.dof > 0:
-            f = ((base.sse - fitted.sse) / len(gains)) / max(fitted.sse / fitted.dof, 1e-300)
-            p = 1 - fdtr(len(gains), fitted.dof, max(f, 0.0))
-            if p < 1e-3 and fitted.rms < np.sqrt(BETTER) * base.rms:
-                # the residual halves with six more parameters: the model is wrong (fail); a
-                # smaller, still significant drop is a warning
-                out.append(
-                    Reason(
-                        "unfitted-gains",
-                        "fail" if fitted.rms < BETTER * base.rms else "warn",
-                        f"fitting the gains lowers the residual RMS from {base.text()} to {fitted.text()} "
-                        f"(F test p {p:.1e}): fit the gains: --fit joints,l0,gains",
-                        {"rms": base.rms, "rms_with_gains": fitted.rms},
-                    )
-                )
+    out = _gains(start, names, sessions, refit, base)
     if not bad:
         return out
+    unit = _units(start, names, sessions, refit, base)
+    if unit is not None:
+        # a unit that explains the fit better than the gains do is the cause (gains and l0
+        # absorb part of positions in metres)
+        gains = [r.data.get("rms_with_gains", np.inf) for r in out]
+        return [r for r, g in zip(out, gains, strict=True) if g < unit.data["rms_converted"]] + [unit]
+    if any(r.severity == "fail" for r in out):
+        return out  # the gains explain the fit (its residual more than halves): no Euler search
+    cause = _euler(start, names, sessions, refit, base)
+    return out + ([cause] if cause is not None else [])
+
+
+def explain_failure(
+    start: Geometry, names: tuple[str, ...], sessions: Sequence[Any], refit: Refit
+) -> Reason | None:
+    """The likely cause of a fit that failed outright (a solver that did not converge, a
+    geometry beyond validity, a degenerate solution): a re-reading of the data (units, Euler
+    sequence) that fits where the data as given do not, or clearly better than every other
+    re-reading of its kind; None when no variant explains it."""
+    base = refit(start, sessions, names)
+    return _units(start, names, sessions, refit, base) or _euler(start, names, sessions, refit, base)
+
+
+def _explains(rms: float, base: Quality, others: Sequence[float]) -> bool:
+    """A variant explains the fit: its RMS below :data:`BETTER` times the fit as given, or,
+    when that failed, finite and below :data:`BETTER` times every other variant of its kind."""
+    if np.isfinite(base.rms):
+        return bool(rms < BETTER * base.rms)
+    return bool(np.isfinite(rms) and all(rms < BETTER * o for o in others))
+
+
+def _gains(
+    start: Geometry, names: tuple[str, ...], sessions: Sequence[Any], refit: Refit, base: Quality
+) -> list[Reason]:
+    from scipy.special import fdtr
+
+    gains = start.leg_model.groups()["gains"]
+    if set(gains) & set(names):
+        return []
+    fitted = refit(start, sessions, names + tuple(gains))
+    if not (np.isfinite(fitted.rms) and fitted.dof > 0):
+        return []
+    f = ((base.sse - fitted.sse) / len(gains)) / max(fitted.sse / fitted.dof, 1e-300)
+    p = 1 - fdtr(len(gains), fitted.dof, max(f, 0.0))
+    if not (p < 1e-3 and fitted.rms < np.sqrt(BETTER) * base.rms):
+        return []
+    # the residual halves with six more parameters: the model is wrong (fail); a smaller,
+    # still significant drop is a warning
+    return [
+        Reason(
+            "unfitted-gains",
+            "fail" if fitted.rms < BETTER * base.rms else "warn",
+            f"fitting the gains lowers the residual RMS from {base.text()} to {fitted.text()} "
+            f"(F test p {p:.1e}): fit the gains: --fit joints,l0,gains",
+            {"rms": base.rms, "rms_with_gains": fitted.rms},
+        )
+    ]
+
+
+def _units(
+    start: Geometry, names: tuple[str, ...], sessions: Sequence[Any], refit: Refit, base: Quality
+) -> Reason | None:
     for k, session in enumerate(sessions):
+        fits = []
         for code, text, data in session.instrument.variants(session.data):
             variant = list(sessions)
             variant[k] = session.replace(data=data)
-            quality = refit(start, variant, names)
-            if quality.rms < BETTER * base.rms:
+            fits.append((refit(start, variant, names), code, text))
+            if np.isfinite(base.rms) and _explains(fits[-1][0].rms, base, ()):
+                break  # the first variant that explains the fit is enough
+        for quality, code, text in fits:
+            others = [q.rms for q, c, _ in fits if c != code]
+            if _explains(quality.rms, base, others):
                 where = f"{session.label}: " if len(sessions) > 1 and session.label else ""
-                out.append(
-                    Reason(
-                        code,
-                        "fail",
-                        f"{where}{text}: with them converted the residual RMS falls from {base.text()} "
-                        f"to {quality.text()}",
-                        {"rms": base.rms, "rms_converted": quality.rms},
-                    )
+                before = base.text() if np.isfinite(base.rms) else "a failed fit"
+                return Reason(
+                    code,
+                    "fail",
+                    f"{where}{text}: with them converted the residual RMS falls from {before} "
+                    f"to {quality.text()}",
+                    {"rms": base.rms, "rms_converted": quality.rms},
                 )
-                return out
+    return None
+
+
+def _euler(
+    start: Geometry, names: tuple[str, ...], sessions: Sequence[Any], refit: Refit, base: Quality
+) -> Reason | None:
     if not any(s.instrument.has_angles for s in sessions):
-        return out
-    fits = [
-        (refit(start.replace(euler=seq), sessions, names).rms, seq)
+        return None
+    # a short refit of every sequence ranks them; the best few are refitted in full
+    screened = sorted(
+        (refit(start.replace(euler=seq), sessions, names, max_nfev=SCREEN_NFEV).rms, seq)
         for seq in EULER_SEQUENCES
         if seq != start.euler
-    ]
-    best_rms, best = min(fits)
-    if best_rms < BETTER * base.rms:
-        out.append(
-            Reason(
-                "euler-sequence",
-                "fail",
-                f"the Euler sequence looks wrong: with {best!r} instead of {start.euler!r} the "
-                f"residual RMS falls from {base.text()} to {best_rms:.4g} {base.unit}",
-                {"euler": best, "rms": base.rms, "rms_converted": best_rms},
-            )
-        )
-    return out
+    )
+    fits = sorted(
+        (refit(start.replace(euler=seq), sessions, names).rms, seq) for _, seq in screened[:SCREEN_KEEP]
+    )
+    best_rms, best = fits[0]
+    if not _explains(best_rms, base, [rms for rms, _ in fits[1:]]):
+        return None
+    before = f"{base.rms:.4g} {base.unit}" if np.isfinite(base.rms) else "a failed fit"
+    return Reason(
+        "euler-sequence",
+        "fail",
+        f"the Euler sequence looks wrong: with {best!r} instead of {start.euler!r} the "
+        f"residual RMS falls from {before} to {best_rms:.4g} {base.unit}",
+        {"euler": best, "rms": base.rms, "rms_converted": best_rms},
+    )

@@ -36,13 +36,14 @@ from numpy.typing import ArrayLike
 
 from hexcal.calibration import diagnosis
 from hexcal.calibration.diagnosis import Quality
-from hexcal.calibration.verdict import MAX_CHANGE, assess
+from hexcal.calibration.verdict import FAIL_FACTOR, MAX_CHANGE, assess, undetermined
 from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
-from hexcal.errors import HexcalError, UsageError
+from hexcal.errors import GeometryError, HexcalError, IdentificationError, InputError, UsageError
+from hexcal.estimation.gauge import gauge_freedoms, unidentifiable
 from hexcal.estimation.least_squares import fit_least_squares
-from hexcal.estimation.likelihood import fit_ml
+from hexcal.estimation.likelihood import ml_misfit
 from hexcal.estimation.noise_check import NoiseCheck, check_noise
 from hexcal.estimation.noise_estimation import NoiseEstimate, estimate_noise
 from hexcal.estimation.outliers import DEFAULT_ALPHA, SCREEN_THRESHOLD, pose_diagnostics
@@ -50,14 +51,18 @@ from hexcal.estimation.problem import Problem, as_sessions, session_noises
 from hexcal.estimation.registry import DEFAULT_ESTIMATOR, get_estimator
 from hexcal.estimation.result import IdentificationResult
 from hexcal.estimation.robust import identify_robust, screen_poses
-from hexcal.estimation.uncertainty import bound_stderr
+from hexcal.estimation.uncertainty import bound_stderr, gauge_fixed_covariance, projected_jacobian
 from hexcal.instruments.base import MeasurementModel, Session
 
 #: ``noise=`` value (and ``default_noise``) that learns the noise from the data.
 AUTO = "auto"
 
-#: Evaluations a diagnosis refit may take (a variant that needs more is no explanation).
+#: Evaluations a diagnosis refit may take (its last iterate counts: the variants are compared).
 _DIAGNOSIS_NFEV = 60
+
+#: How a fit fails outright (a solver that did not converge, a geometry beyond validity, a
+#: degenerate solution): the diagnoses then look for the cause among re-readings of the data.
+_FIT_FAILURES = (IdentificationError, GeometryError, InputError, np.linalg.LinAlgError)
 
 
 def register_sessions(start: Geometry, sessions: Sequence[Session]) -> tuple[list[Session], tuple[Any, ...]]:
@@ -164,49 +169,54 @@ def estimate(
     problem = Problem(start, sessions, mask=mask, parameters=parameters, fit=fit, fix=fix)
     if estimator.needs_pose and not problem.determines_pose:
         estimator.fit(problem)  # refuses in one line, naming the session
-    noise_estimate = noise_check = None
-    flagged: tuple[str, ...] = ()
-    if robust:
-        problem.check_size()  # too few poses by the data's count, before any is set aside
-        if auto:
-            noise_estimate = _robust_noise(problem, options)
-            noise = noise_estimate.noises
-        with np.errstate(over="ignore"):  # a gross outlier's deletion statistic may be inf
-            robust_fit = identify_robust(
-                start, problem=problem, method=method, alpha=alpha, noise=noise, **options
-            )
-        result, used = robust_fit.result, robust_fit.problem
-    else:
-        if auto:
-            noise_estimate, ml_fit = estimate_noise(problem, **options)
-            noise = noise_estimate.noises
-            result = ml_fit if method == "ml" else estimator.fit(problem, noise, **options)
+    try:
+        noise_estimate = noise_check = None
+        flagged: tuple[str, ...] = ()
+        if robust:
+            problem.check_size()  # too few poses by the data's count, before any is set aside
+            if auto:
+                noise_estimate = _robust_noise(problem, options)
+                noise = noise_estimate.noises
+            with np.errstate(over="ignore"):  # a gross outlier's deletion statistic may be inf
+                robust_fit = identify_robust(
+                    start, problem=problem, method=method, alpha=alpha, noise=noise, **options
+                )
+            result, used = robust_fit.result, robust_fit.problem
         else:
-            result = estimator.fit(problem, noise, **options)
-            if verdict:
-                noise_check = _check(problem, noise, result, alpha)
-        used = problem
-        if diagnose:
-            flagged = _flagged(problem, result, method, noise, alpha)
-    noises = session_noises(used, noise)
-    bound = None
-    if with_bound:
-        poses = None if used.determines_pose else result.poses
-        bound = bound_stderr(_at_result(used, result), noises, poses=poses)
-    result = result.replace(
-        bound=bound,
-        noise=noises[0],
-        noises=noises,
-        flagged=flagged,
-        noise_source="estimated" if auto else "given",
-        noise_estimate=noise_estimate,
-        noise_check=noise_check,
-        registrations=registrations,
-    )
+            if auto:
+                noise_estimate, ml_fit = estimate_noise(problem, **options)
+                noise = noise_estimate.noises
+                result = ml_fit if method == "ml" else estimator.fit(problem, noise, **options)
+            else:
+                result = estimator.fit(problem, noise, **options)
+                if verdict:
+                    noise_check = _check(problem, noise, result, alpha)
+            used = problem
+            if diagnose:
+                flagged = _flagged(problem, result, method, noise, alpha)
+        noises = session_noises(used, noise)
+        bound = None
+        if with_bound:
+            poses = None if used.determines_pose else result.poses
+            bound = bound_stderr(_at_result(used, result), noises, poses=poses)
+        result = result.replace(
+            bound=bound,
+            noise=noises[0],
+            noises=noises,
+            flagged=flagged,
+            noise_source="estimated" if auto else "given",
+            noise_estimate=noise_estimate,
+            noise_check=noise_check,
+            registrations=registrations,
+        )
+    except _FIT_FAILURES as exc:
+        if verdict:  # name the likely cause (a unit, an Euler sequence, weak poses) in the one line
+            _explain_failure(exc, problem, given, noise if not auto else None, sigma_limit)
+        raise
     if verdict:
 
         def run_diagnosis(bad: bool) -> list:
-            return diagnosis.diagnose(result, given, _refit(noises), bad)
+            return diagnosis.diagnose(result, given, _refit(_diagnosis_noises(noises, auto)), bad)
 
         judged = assess(
             result,
@@ -219,6 +229,7 @@ def estimate(
             robust=robust,
             diagnose=run_diagnosis,
             noise=noises,
+            reference=_as_given(used, given),
         )
         result = result.replace(verdict=judged)
     return result
@@ -233,6 +244,17 @@ def _at_result(problem: Problem, result: IdentificationResult) -> Problem:
         for p, inst in zip(problem.parts, problem.instruments(full), strict=True)
     ]
     return Problem(problem.geometry(full), sessions, parameters=problem.parameters.with_values(full))
+
+
+def _as_given(problem: Problem, given: Sequence[Session]) -> np.ndarray:
+    """The varied parameters as the user gave them (each instrument's setup before the data
+    registered it): what a change is measured from. A free tool's registered start can be tens
+    of millimetres from the setup's tool (the nominal machine's errors through the platform's
+    small rotations); the calibrated tool is judged against the setup, not that start."""
+    full = np.array(problem.full0)
+    for part, session in zip(problem.parts, given, strict=True):
+        full[part.block] = session.instrument.parameters().values
+    return full[problem.mask]
 
 
 def _flagged(problem: Problem, result: IdentificationResult, method: str, noise: Any, alpha: float) -> tuple:
@@ -270,11 +292,57 @@ def _robust_noise(problem: Problem, options: dict) -> NoiseEstimate:
     return estimate_noise(problem.subset(keep), **options)[0]
 
 
+def _explain_failure(
+    exc: Exception, problem: Problem, given: Sequence[Session], noise: Any, sigma_limit: float
+) -> None:
+    """Raise the failure again with its likely cause when one is found: a unit or Euler
+    re-reading of the data that fits (:func:`hexcal.calibration.diagnosis.explain_failure`), or
+    else the combinations the poses do not determine (poses that barely rotate make the
+    solver run out of evaluations rather than the rank fall)."""
+    noises = _diagnosis_noises(session_noises(problem, noise), noise is None)
+    cause = diagnosis.explain_failure(problem.start, problem.names, given, _refit(noises))
+    text = str(exc) if isinstance(exc, HexcalError) else f"the computation failed numerically ({exc})"
+    if cause is not None:
+        raise IdentificationError(f"{text}; likely cause: {cause.message}") from exc
+    weak = _weak_combinations(problem, noises, sigma_limit)
+    if weak and "combination" not in text:
+        raise IdentificationError(f"{text}; {weak}") from exc
+
+
+def _weak_combinations(problem: Problem, noises: tuple[NoiseModel, ...], sigma_limit: float) -> str:
+    """The combinations the poses do not determine at the start (beyond the gauges, or with a
+    predicted σ beyond the fail limit of the verdict), named; empty when none."""
+    try:
+        jac = projected_jacobian(problem, noises)
+        gauge = gauge_freedoms(problem, problem.full0)
+        lost = unidentifiable(problem, jac, gauge)
+        if lost:
+            return f"not determined by these data: {lost[-1]} ({len(lost)} combination(s))"
+        cov = gauge_fixed_covariance(problem, jac, gauge)
+        values = problem.full0[problem.mask]
+        weak = [(s, c) for s, c in undetermined(cov, problem.names, sigma_limit, values) if s > FAIL_FACTOR]
+    except (HexcalError, ValueError, np.linalg.LinAlgError):
+        return ""
+    return "; ".join(
+        f"not determined by these data: {c} (predicted σ {s:.3g} × the limit of {sigma_limit:g} mm)"
+        for s, c in weak[:3]
+    )
+
+
+def _diagnosis_noises(noises: tuple[NoiseModel, ...], learned: bool) -> tuple[NoiseModel, ...]:
+    """The noise the diagnoses' refits weigh with: the given one, or the default noise model
+    when it was learned (a learned noise has absorbed the error a diagnosis looks for)."""
+    return tuple(NoiseModel() for _ in noises) if learned else noises
+
+
 def _refit(noises: tuple[NoiseModel, ...]) -> Any:
     """The diagnoses' refit: least squares on the leg lengths where every instrument gives the
     pose, else maximum likelihood under ``noises``; unknown frames registered again."""
 
-    def refit(start: Geometry, sessions: Sequence[Session], names: tuple[str, ...]) -> Quality:
+    def refit(
+        start: Geometry, sessions: Sequence[Session], names: tuple[str, ...], max_nfev: int | None = None
+    ) -> Quality:
+        nfev = _DIAGNOSIS_NFEV if max_nfev is None else max_nfev
         try:
             registered, _ = register_sessions(start, sessions)
             base = Problem(start, registered)
@@ -283,10 +351,11 @@ def _refit(noises: tuple[NoiseModel, ...]) -> Any:
             )
             problem = Problem(start, registered, parameters=base.parameters.with_vary(vary))
             if problem.determines_pose:
-                res = fit_least_squares(problem, "length", max_nfev=_DIAGNOSIS_NFEV)
+                res = fit_least_squares(problem, "length", max_nfev=nfev, truncate=True)
                 return Quality(res.rms_after, float(np.sum(res.residuals**2)), res.dof, "mm")
-            res = fit_ml(problem, noises, max_nfev=_DIAGNOSIS_NFEV)
-            return Quality(res.rms_after, float(np.sum(res.residuals**2)), res.dof, "(whitened)")
+            problem.check_size()
+            value, sse, dof = ml_misfit(problem, noises, max_nfev=nfev)
+            return Quality(value, sse, dof, "(whitened)")
         except (HexcalError, ValueError, np.linalg.LinAlgError):
             return Quality(float("inf"), float("inf"), 0)
 

@@ -19,7 +19,9 @@
   σ (``warn``), or :data:`GROSS_FACTOR` times that (``fail``), named by id;
 - **predicted accuracy**: the position and orientation RMS error over the workspace after
   calibration, from the parameter covariance (the one formula of
-  :func:`hexcal.calibration.accuracy.predicted_pose_accuracy`; ``info``).
+  :func:`hexcal.calibration.accuracy.predicted_pose_accuracy`; ``info``), and of what each
+  instrument in its own frame reads, in its own terms (target distances, tool position and
+  angle: :func:`hexcal.calibration.accuracy.predicted_instrument_accuracy`; ``info``).
 
 The same judgement holds for every instrument: the limits are per kind of parameter (lengths
 in mm, angles in rad, gains relative to their nominal value), and an instrument's frame, which
@@ -35,7 +37,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.calibration.accuracy import expected_validation, machine_mask, predicted_pose_accuracy
+from hexcal.calibration.accuracy import (
+    expected_validation,
+    machine_mask,
+    predicted_instrument_accuracy,
+    predicted_pose_accuracy,
+)
 from hexcal.core.geometry import Geometry
 from hexcal.errors import HexcalError
 
@@ -254,6 +261,7 @@ def assess(
     diagnose: Any = None,
     accuracy: bool = True,
     noise: Any = None,
+    reference: NDArray[np.float64] | None = None,
 ) -> Verdict:
     """The verdict of an identification (module docstring).
 
@@ -281,6 +289,9 @@ def assess(
         Compute the predicted pose accuracy over the workspace.
     noise : NoiseModel or sequence, optional
         The noise the screening of instruments that do not give the pose whitens with.
+    reference : ndarray, optional
+        The values changes are measured from (the setups as given, before registration);
+        default the start values.
     """
     reasons: list[Reason] = []
     reasons += _chi_square_reasons(result, alpha) if noise_estimate is None else []
@@ -299,7 +310,7 @@ def assess(
                 {"combination": combo, "sigma_over_limit": sig},
             )
         )
-    change = np.asarray(result.values) - start_values
+    change = np.asarray(result.values) - (start_values if reference is None else reference)
     limits = change_limits(result.start, names, max_change, start_values)
     over = np.flatnonzero(np.abs(change) > limits)
     if over.size:
@@ -343,6 +354,9 @@ def assess(
         if problem is not None and noise is not None:
             acc["validation"] = _expected_validation(result, problem, noise, cov, mask, rigid)
             reasons.append(_validation_reason(acc["validation"]))
+        if problem is not None:
+            acc["instrument"] = _instrument_accuracy(result, problem, mask)
+            reasons += [_instrument_reason(entry) for entry in acc["instrument"] if entry["own_frame"]]
     verdict = Verdict(tuple(reasons), acc)
     if diagnose is not None:
         extra = diagnose(verdict.status == "fail")
@@ -377,6 +391,49 @@ def _validation_reason(expected: dict[str, Any]) -> Reason:
         f"(the parameters' part: {own['position_rms_mm']:.3g} mm, {own['orientation_rms_rad']:.3g} rad, "
         f"{own['leg_rms_mm']:.3g} mm)",
         expected,
+    )
+
+
+def _instrument_accuracy(result: Any, problem: Any, mask: NDArray) -> list[dict[str, Any]]:
+    """The predicted accuracy of what each session's instrument reads, in its own terms
+    (:func:`hexcal.calibration.accuracy.predicted_instrument_accuracy`), per session."""
+    if len(result.names) != problem.n_free:
+        return []
+    full = np.array(problem.full0)
+    full[problem.mask] = result.values
+    machine = problem.free_in(problem.machine)
+    out = []
+    for part in problem.parts:
+        own = problem.free_in(part.block)
+        rows = machine | own
+        acc = predicted_instrument_accuracy(
+            result.geometry,
+            part.instrument,
+            full[part.block],
+            result.covariance[np.ix_(rows, rows)],
+            mask,
+            problem.mask[part.block],
+        )
+        own_frame = not part.instrument.constant_pose_jacobian  # not the platform pose itself
+        out.append(
+            {"session": part.label, "instrument": part.instrument.describe(), "own_frame": own_frame} | acc
+        )
+    return out
+
+
+def _instrument_reason(entry: dict[str, Any]) -> Reason:
+    values = [
+        f"{key.split('_rms_')[0]} RMS {value:.3g} {key.split('_rms_')[1]} "
+        f"(worst {entry[key.replace('_rms_', '_max_')]:.3g})"
+        for key, value in entry.items()
+        if "_rms_" in key
+    ]
+    return Reason(
+        "predicted-instrument-accuracy",
+        "info",
+        f"predicted error of what the instrument reads after calibration ({entry['session']}): "
+        + ", ".join(values),
+        entry,
     )
 
 

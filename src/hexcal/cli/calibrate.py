@@ -97,7 +97,7 @@ def cmd_identify(args: argparse.Namespace) -> None:
     import numpy as np
 
     from hexcal.calibration import estimate
-    from hexcal.io import atomic_write, save_geometry, save_setup_dict
+    from hexcal.io import active_outputs, atomic_write, save_geometry, save_setup_dict
     from hexcal.report import identification_dict, identification_report_dict, render
 
     check_outputs(args.out, args.report, args.json, args.html)
@@ -126,6 +126,9 @@ def cmd_identify(args: argparse.Namespace) -> None:
     text = render("identification", report)
     if result.failed and not args.force:
         print(text)
+        outputs = active_outputs()
+        if outputs is not None:  # the report is shown though nothing is written
+            outputs.show_text()
         reasons = result.verdict.reasons
         serious = [r.message for r in reasons if r.severity == "fail"]
         serious += [r.message for r in reasons if r.severity == "warn"]

@@ -22,12 +22,16 @@ from hexcal.estimation.problem import Problem
 from hexcal.estimation.result import IdentificationResult, rms
 
 
-def solve_least_squares(fun: Any, jac: Any, x0: np.ndarray, polish: int = 0, **kwargs: Any) -> Any:
+def solve_least_squares(
+    fun: Any, jac: Any, x0: np.ndarray, polish: int = 0, truncate: bool = False, **kwargs: Any
+) -> Any:
     """``scipy.optimize.least_squares`` by Levenberg–Marquardt with hexcal's tolerances.
 
     ``x_scale=1``: the variables are already in parameter-scale units (scipy >= 1.16 defaults
     LM to 'jac' scaling, which starts with steps far too small here). Raises
-    :class:`IdentificationError` when the solver fails.
+    :class:`IdentificationError` when the solver fails; with ``truncate``, a solver that runs
+    out of evaluations (``max_nfev``) returns its last iterate instead (a refit that only
+    compares residuals, such as a diagnosis).
 
     ``polish``: at most that many Gauss–Newton steps after Levenberg–Marquardt. LM stops when
     its trust region collapses because the cost (a sum of large squares) can no longer tell
@@ -39,7 +43,7 @@ def solve_least_squares(fun: Any, jac: Any, x0: np.ndarray, polish: int = 0, **k
 
     options = {"method": "lm", "x_scale": 1.0, "xtol": 1e-12, "ftol": 1e-12, "gtol": 1e-12} | kwargs
     sol = least_squares(fun, x0, jac=jac, **options)
-    if sol.status <= 0 or not np.all(np.isfinite(sol.x)):
+    if (sol.status < 0 or (sol.status == 0 and not truncate)) or not np.all(np.isfinite(sol.x)):
         raise IdentificationError(f"the solver did not converge: {sol.message}")
     x = sol.x
     for _ in range(polish):
@@ -60,11 +64,13 @@ def fit_least_squares(
     xtol: float = 1e-12,
     max_nfev: int | None = None,
     polish: int = 0,
+    truncate: bool = False,
 ) -> IdentificationResult:
     """Least squares of the leg residual ``variant`` at the measured poses.
 
     ``polish`` Gauss–Newton steps after Levenberg–Marquardt resolve the optimum within
-    rounding (:func:`solve_least_squares`).
+    rounding, ``truncate`` keeps the last iterate of a solver out of evaluations
+    (:func:`solve_least_squares`).
 
     The covariance is ``s² V S⁻² Vᵀ`` from the SVD of the column-normalised Jacobian at the
     solution, with ``s²`` the residual variance ``sum(r²) / (6 m - n)``.
@@ -74,7 +80,7 @@ def fit_least_squares(
     x0 = np.zeros(problem.n_free)
     problem.check_rank(jac(x0))
     r0 = fun(x0)
-    sol = solve_least_squares(fun, jac, x0, polish, xtol=xtol, max_nfev=max_nfev)
+    sol = solve_least_squares(fun, jac, x0, polish, truncate, xtol=xtol, max_nfev=max_nfev)
     return finish_result(problem, variant, problem.unpack(sol.x), sol.fun, sol.jac, rms(r0), sol)
 
 

@@ -152,6 +152,7 @@ def solve_projection(
     xtol: float = 1e-10,
     max_nfev: int | None = 500,
     polish: int = 0,
+    truncate: bool = False,
 ) -> tuple[NDArray[np.float64], Any]:
     """Levenberg–Marquardt on the projected likelihood in the directions orthogonal to the
     gauges: ``(x, solver result)``, ``x`` under the gauge convention."""
@@ -162,6 +163,7 @@ def solve_projection(
             inner.jacobian,
             x_start,
             polish,
+            truncate,
             xtol=xtol,
             ftol=1e-12,
             gtol=1e-12,
@@ -176,7 +178,15 @@ def solve_projection(
         return inner.jacobian(x_start + basis @ z) @ basis
 
     sol = solve_least_squares(
-        fun, jac, np.zeros(basis.shape[1]), polish, xtol=xtol, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev
+        fun,
+        jac,
+        np.zeros(basis.shape[1]),
+        polish,
+        truncate,
+        xtol=xtol,
+        ftol=1e-12,
+        gtol=1e-12,
+        max_nfev=max_nfev,
     )
     full = apply_convention(problem, problem.unpack(x_start + basis @ sol.x), gauge)
     return (full[problem.mask] - problem.full0[problem.mask]) / problem.scale, sol
@@ -265,3 +275,19 @@ def fit_ml(
         blocks=inner.blocks(x),
         noises=noises,
     )
+
+
+def ml_misfit(
+    problem: Problem, noise: NoiseModel | Sequence[NoiseModel] | None = None, max_nfev: int | None = None
+) -> tuple[float, float, int]:
+    """``(rms, sum of squares, dof)`` of the whitened residuals of the ``ml`` fit, without its
+    covariance, bound or checks: a refit that only compares residuals (a diagnosis). The last
+    iterate counts when ``max_nfev`` runs out."""
+    inner = Projection(problem, noise)
+    gauge = gauge_freedoms(problem, problem.full0)
+    _, sol = solve_projection(
+        problem, inner, gauge, np.zeros(problem.n_free), max_nfev=max_nfev, truncate=True
+    )
+    e = np.asarray(sol.fun)  # at the last iterate (the gauge convention changes no residual)
+    dof = int(problem.observation_counts().sum()) - (problem.n_free - gauge.size)
+    return rms(e), float(e @ e), dof

@@ -231,15 +231,20 @@ _MAX_RATIO = 10.0
 
 def _helmert_ratio(stats: GroupStatistics, estimated: NDArray[np.bool_]) -> NDArray[np.float64]:
     """Helmert's update ``α = M⁻¹ Ω`` of the variance ratios (``σ_new = sqrt(α) σ``), at most
-    a factor :data:`_MAX_RATIO` either way per step: a ratio at or below zero (a group with no
-    noise, or groups the data hardly tell apart) shrinks the σ by that factor instead of
-    dropping it to its floor in one step, from where the next step would overshoot."""
+    a factor :data:`_MAX_RATIO` either way per step.
+
+    Where it gives a group a negative (or no finite) variance, the step is Förstner's
+    ``σ_new² = σ² Ω_g / r_g`` instead: positive, with the same fixed point (``Ω_g = r_g``). A
+    gross error makes the Helmert step negative for the group that does not hold it (the legs,
+    when one target observation is 1.5 mm off); held at its floor, that group then made the fit
+    singular and the iteration diverge. The clip keeps a group with no noise at all falling to its
+    floor geometrically instead of in one step, from where the next step would overshoot."""
     ratio = np.ones(len(stats.groups))
     if stats.helmert is None:
         return stats.ratio
     sub = stats.helmert[np.ix_(estimated, estimated)]
     alpha = np.linalg.lstsq(sub, stats.omega[estimated], rcond=None)[0]
-    if not np.all(np.isfinite(alpha)):  # Förstner's ratio Ω_g / r_g: the same fixed point
+    if not np.all(np.isfinite(alpha)) or np.any(alpha <= 0):
         alpha = stats.omega[estimated] / stats.redundancy[estimated]
     ratio[estimated] = np.sqrt(np.clip(alpha, 1 / _MAX_RATIO**2, _MAX_RATIO**2))
     return ratio
@@ -363,7 +368,10 @@ def estimate_noise(
     floors = np.array([NOISE_FLOORS.get(name, 1e-8) for _, name in keys])
     sigmas = np.maximum(_start_sigmas(problem, keys, start), floors)
     # one converged fit, then Gauss–Newton steps of the parameters interleaved with the
-    # variance-component updates (each step is one pose projection, not a whole fit)
+    # variance-component updates (each step is one pose projection, not a whole fit). The
+    # step under the current variances comes first: the update needs the residuals of the
+    # fit for these variances, and residuals one step behind make it overshoot and
+    # oscillate (40 iterations without converging instead of about 8)
     x = _solver_variables(problem, fit_ml(problem, _session_noises(keys, sigmas, n_sessions), **options))
     poses = None
     converged, it = False, 0
@@ -374,22 +382,29 @@ def estimate_noise(
             for part, own in zip(inner.parts, poses, strict=True):
                 part.poses = own
         try:
-            stats, e, jac = _statistics(problem, inner, x, keys)
+            step = np.linalg.lstsq(inner.jacobian(x), inner.residuals(x), rcond=None)[0]
+            moved = x - step
+            if not np.all(np.isfinite(moved)):
+                raise np.linalg.LinAlgError("the step is not finite")
+            stats, _, _ = _statistics(problem, inner, moved, keys)
         except (np.linalg.LinAlgError, FloatingPointError, HexcalError):
-            # the last Gauss–Newton step left the basin (a large change of the weights moved
-            # the optimum far): a full fit under the current variances instead
+            # the step left the basin (a large change of the weights moved the optimum far):
+            # a full fit under the current variances instead, or stop with the last values
             current = _session_noises(keys, sigmas, n_sessions)
-            x = _solver_variables(problem, fit_ml(problem, current, **options))
-            inner = Projection(problem, current)
-            stats, e, jac = _statistics(problem, inner, x, keys)
+            try:
+                moved = _solver_variables(problem, fit_ml(problem, current, **options))
+                inner = Projection(problem, current)
+                stats, _, _ = _statistics(problem, inner, moved, keys)
+            except (np.linalg.LinAlgError, FloatingPointError, HexcalError):
+                break
+            step = moved - x
+        x = moved
         if stats.keys != keys:
             raise IdentificationError("variance components need a diagonal instrument covariance")
         poses = [part.poses for part in inner.parts]
-        step = np.linalg.lstsq(jac, e, rcond=None)[0]
-        x = x - step
         estimated = stats.redundancy >= MIN_REDUNDANCY
         new = np.where(estimated, np.maximum(sigmas * _helmert_ratio(stats, estimated), floors), sigmas)
-        if not np.all(np.isfinite(new)) or not np.all(np.isfinite(x)):
+        if not np.all(np.isfinite(new)):
             break  # the iteration diverges (a gross error): keep the last finite values
         change = float(np.max(np.abs(new / sigmas - 1)))
         sigmas = new

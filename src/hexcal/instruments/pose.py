@@ -295,6 +295,12 @@ class ToolModel(FramedModel):
         ):
             if code == "degrees" and np.max(angles, initial=0.0) * 180 / np.pi > np.pi:
                 continue  # read as degrees, these angles would pass a half turn
+            if code == "radians" and np.max(angles, initial=0.0) <= np.pi / 2:
+                # no angle beyond a quarter turn (the reader's own test for degrees): read as
+                # degrees they would leave the platform all but unrotated, a re-reading that
+                # "explains" any misfit of the orientations (a wrong Euler sequence) by
+                # dropping them
+                continue
             poses = np.array(data.poses)
             poses[:, 3:] *= factor
             out.append((f"angle-units-{code}", text, data.replace(poses=poses)))

@@ -296,6 +296,13 @@ class OutputSet:
         """The standard-output text staged so far."""
         return self._text.getvalue()
 
+    def show_text(self) -> None:
+        """Write the standard-output text staged so far now, files staying staged: a command
+        that refuses to write its files still shows why (``identify``'s report of a verdict
+        fail)."""
+        self._write_stdout()
+        self._text = io.StringIO()
+
     # -- commit / discard ---------------------------------------------------------------
     def _stdout_bytes(self, stream: IO[str]) -> bytes:
         text = self._text.getvalue()
