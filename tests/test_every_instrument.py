@@ -48,6 +48,15 @@ KINDS = list(INSTRUMENTS)
 OWN_FRAME = [k for k in KINDS if INSTRUMENTS[k].true_setup is not None]
 
 
+def _slow_unless(cases: list[Any], default: set[Any]) -> list[Any]:
+    """``cases`` as parameters, those not in ``default`` marked slow: the default run keeps
+    every instrument and every diagnosis once (a failed identification refits its variants:
+    several seconds each), ``make test-slow`` runs the whole matrix."""
+    slow = pytest.mark.slow
+    return [c if c in default else pytest.param(*(c if isinstance(c, tuple) else (c,)), marks=slow)
+            for c in cases]  # fmt: skip
+
+
 @pytest.fixture(scope="module")
 def campaigns(tmp_path_factory: pytest.TempPathFactory) -> Campaigns:
     return Campaigns(tmp_path_factory.mktemp("every-instrument"))
@@ -127,7 +136,12 @@ def _nothing_written(files: dict[str, Path]) -> None:
     assert not written, f"a failed identify wrote {written}"
 
 
-@pytest.mark.parametrize(("kind", "diagnosis"), FAIL_CASES)
+#: Each instrument and each diagnosis at least once in the default run.
+DEFAULT_FAILS = {("pose", "degrees"), ("pose", "euler"), ("tool", "gains"), ("target", "metres"),
+                 ("target", "flat"), ("targets", "gains"), ("pose-frame", "degrees")}  # fmt: skip
+
+
+@pytest.mark.parametrize(("kind", "diagnosis"), _slow_unless(FAIL_CASES, DEFAULT_FAILS))
 def test_a_failed_identification_writes_nothing_and_names_the_cause(
     kind: str, diagnosis: str, campaigns: Campaigns
 ) -> None:
@@ -142,21 +156,35 @@ def test_a_failed_identification_writes_nothing_and_names_the_cause(
         assert done.out.startswith("Verdict: FAIL")
 
 
-@pytest.fixture(scope="module")
-def spoiled(campaigns: Campaigns) -> dict[str, dict[str, tuple[Run, dict[str, Path]]]]:
-    """The spoiled campaign of every instrument: as is, with --force, with --robust."""
-    out = {}
-    for kind in KINDS:
-        data = campaigns.data(kind, "spoiled")
-        out[kind] = {
+class _Spoiled(dict):
+    """The spoiled campaign of an instrument, identified on first use: as is, with --force,
+    with --robust (a failed identification explains itself by refitting: seconds each)."""
+
+    def __init__(self, campaigns: Campaigns) -> None:
+        super().__init__()
+        self.campaigns = campaigns
+
+    def __missing__(self, kind: str) -> dict[str, tuple[Run, dict[str, Path]]]:
+        campaigns, data = self.campaigns, self.campaigns.data(kind, "spoiled")
+        self[kind] = {
             "plain": identify(campaigns, kind, data, f"{kind}-spoiled"),
             "force": identify(campaigns, kind, data, f"{kind}-forced", "--force"),
             "robust": identify(campaigns, kind, data, f"{kind}-robust", "--robust"),
         }
-    return out
+        return self[kind]
 
 
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.fixture(scope="module")
+def spoiled(campaigns: Campaigns) -> _Spoiled:
+    return _Spoiled(campaigns)
+
+
+#: The instruments whose spoiled campaign the default run identifies (a position and a pose
+#: instrument); the others with ``make test-slow``.
+SPOILED_DEFAULT = {"pose", "targets"}
+
+
+@pytest.mark.parametrize("kind", _slow_unless(KINDS, SPOILED_DEFAULT))
 def test_force_writes_a_failed_identification(kind: str, spoiled: dict) -> None:
     done, files = spoiled[kind]["plain"]
     assert done.code == 1 and done.out.startswith("Verdict: FAIL"), done.err
@@ -242,7 +270,7 @@ def test_predicted_accuracy_in_the_instruments_own_terms(kind: str, baseline: di
 # -- 5. outliers --------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", _slow_unless(KINDS, SPOILED_DEFAULT))
 def test_a_spoiled_observation_is_flagged_and_robust_leaves_it_out(kind: str, spoiled: dict) -> None:
     done, files = spoiled[kind]["force"]
     flagged = load_json(files["json"])["flagged"]

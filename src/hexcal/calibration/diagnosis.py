@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from hexcal.calibration.verdict import Reason
+from hexcal.calibration.reasons import Reason
 from hexcal.core.geometry import Geometry
 
 #: A variant explains a bad fit when its residual RMS is below this fraction of the original.

@@ -27,12 +27,13 @@ Compensation (leg commands for targets) is :mod:`hexcal.core.compensation`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from hexcal.calibration.accuracy import expected_validation, machine_mask
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, pose_errors
 from hexcal.core.noise import NoiseModel
@@ -74,6 +75,13 @@ class ValidationResult:
         The re-registration of the instrument's free quantities (None when all are fixed):
         ``folds``, ``seed``, ``quantities`` (their names), ``values`` and ``stderr`` fitted on
         all the poses, ``leg_rms_mm`` of that fit at its estimated poses, and ``noise``.
+    expected : dict, optional
+        What this validation should measure if the calibration is as good as it said
+        (:func:`~hexcal.calibration.accuracy.expected_validation` at these poses, with the
+        uncertainty the geometry's ``calibration:`` record carries and this session's noise):
+        ``position_rms_mm``, ``orientation_rms_rad``, ``leg_rms_mm``, ``from_parameters``,
+        ``noise`` (where its σ come from), and ``measured_over_expected`` (the ratio of each
+        measured RMS to it). None when the geometry has no such record.
     """
 
     ids: tuple[str, ...]
@@ -85,6 +93,7 @@ class ValidationResult:
     instrument: str = "full pose in the base frame"
     value_labels: tuple[str, ...] = ()
     registration: dict[str, Any] | None = None
+    expected: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, object]:
         """Summary and per-observation errors, JSON-ready (mm and rad)."""
@@ -98,6 +107,7 @@ class ValidationResult:
             "orientation_error": self.orientation_error.tolist(),
             "instrument_errors": {k: v.tolist() for k, v in self.instrument_errors.items()},
             "registration": self.registration,
+            "expected": self.expected,
         }
 
     def summary(self) -> dict[str, float]:
@@ -191,7 +201,7 @@ def validate(
     session = as_sessions(data, instrument)[0]
     inst = session.instrument
     if not _free(inst):
-        return _evaluate(geometry, session)
+        return _with_expected(_evaluate(geometry, session), geometry, inst, noise, folds)
     if folds < 2:
         raise UsageError(f"folds must be at least 2, got {folds}")
     m, free = len(session), int(np.sum(_free_vary(inst)))
@@ -221,7 +231,123 @@ def validate(
         "leg_rms_mm": whole.leg_rms_after,
         "noise": noise.describe(),
     }
-    return _merge(parts, m, record)
+    return _with_expected(_merge(parts, m, record), geometry, whole.calibrated_instruments()[0], noise, folds)
+
+
+def _with_expected(
+    result: ValidationResult,
+    geometry: Geometry,
+    instrument: MeasurementModel,
+    noise: NoiseModel | None,
+    folds: int,
+) -> ValidationResult:
+    """``result`` with what it should have measured (``expected``), when the geometry's
+    calibration record has the identified machine's uncertainty (written by ``identify``).
+
+    The prediction proper uses the noise the calibration learned (or was given) on its own
+    sessions: it is independent of this session, and is what ``identify`` stated. With the
+    noise learned on this session by its registration, the same figures under
+    ``with_session_noise``: close to the measured ones by construction (the registration absorbs
+    into that noise whatever the model does not describe), they separate a noisier session from
+    a worse calibration."""
+    record = (geometry.calibration or {}).get("uncertainty")
+    if record is None:
+        return result
+    names, cov, gauge, recorded = _uncertainty(record, geometry)
+    poses = result.model_poses[np.all(np.isfinite(result.model_poses), axis=1)]
+    rigid = gauge if gauge.shape[1] else None
+    mask = machine_mask(geometry, names=names)
+    summary = result.summary()
+
+    def predict(model: NoiseModel, source: str) -> dict[str, Any]:
+        out = expected_validation(geometry, cov, [(instrument, poses, model)], mask, rigid, folds)
+        out["noise"] = source  # calibration (its own sessions'), session (learned here) or given
+        out["noise_sigmas"] = dict(zip(("leg", "position", "orientation"), model.sigmas, strict=True))
+        pairs = (("position_rms", "position_rms_mm"), ("orientation_rms", "orientation_rms_rad"),
+                 ("leg_rms", "leg_rms_mm"))  # fmt: skip
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out["measured_over_expected"] = {
+                key: float(summary[own] / out[key]) for own, key in pairs if np.isfinite(summary[own])
+            }
+        return out
+
+    own = None
+    if noise is not None:
+        own = predict(noise, "session" if result.registration else "given")
+    if recorded is None:
+        return replace(result, expected=own)
+    expected = predict(recorded, "calibration")
+    expected["with_session_noise"] = own
+    expected["findings"] = _findings(expected)
+    return replace(result, expected=expected)
+
+
+#: A session measured this many times worse than the calibration predicts (RMS) is not described
+#: by the model as well as the calibration's own sessions: the RMS of ``m`` poses scatters by about
+#: ``1 / sqrt(2 m)`` (5 % at 100 poses), so a factor 1.5 is no chance.
+RATIO_LIMIT = 1.5
+#: A σ learned on the session this many times the calibration's is "far above" it.
+NOISE_LIMIT = 2.0
+
+
+def _findings(expected: dict[str, Any]) -> list[str]:
+    """What the comparison says when the calibration does not predict the session as it said."""
+    out = []
+    ratios = expected["measured_over_expected"]
+    worse = {k.split("_rms")[0]: v for k, v in ratios.items() if v > RATIO_LIMIT}
+    if worse:
+        listed = ", ".join(f"{k} {v:.2g}x" for k, v in worse.items())
+        out.append(
+            f"this session is predicted worse than the calibration's uncertainty and noise say ({listed}): "
+            "the model does not describe it as well as its own sessions (leg errors beyond a gain, a "
+            "joint that moved, or a noisier session)"
+        )
+    own = expected.get("with_session_noise")
+    if own is not None:
+        mine, theirs = own["noise_sigmas"], expected["noise_sigmas"]
+        far = {k: mine[k] / theirs[k] for k in mine if theirs[k] > 0 and mine[k] > NOISE_LIMIT * theirs[k]}
+        if far:
+            listed = ", ".join(f"{k} σ {mine[k]:.3g} ({v:.2g}x)" for k, v in far.items())
+            out.append(
+                f"the noise learned on this session with the machine fixed is far above the calibration's: "
+                f"{listed}: what the model misses shows up as noise"
+            )
+    return out
+
+
+def _uncertainty(
+    record: Any, geometry: Geometry
+) -> tuple[tuple[str, ...], NDArray, NDArray, NoiseModel | None]:
+    """The machine parameters' names, covariance and gauge directions of a ``calibration:
+    uncertainty`` record (in the geometry's parameter order), and the calibration's noise."""
+    where = "the geometry's calibration: uncertainty record"
+    try:
+        names = tuple(str(n) for n in record["names"])
+        cov = np.asarray(record["covariance"], dtype=float)
+        gauge = np.asarray(record["gauge"], dtype=float).reshape(len(names), -1)
+    except (KeyError, TypeError, ValueError):
+        raise ValidationError(
+            f"{where} is malformed (names, covariance, gauge): write it again with identify"
+        ) from None
+    order = [n for n in geometry.machine_names() if n in names]
+    if cov.shape != (len(names), len(names)) or len(order) != len(names) or not np.all(np.isfinite(cov)):
+        raise ValidationError(
+            f"{where} does not match the geometry's parameters: write it again with identify"
+        )
+    index = [names.index(n) for n in order]
+    noise = None
+    sigmas = record.get("noise")
+    if isinstance(sigmas, dict):
+        try:
+            noise = NoiseModel(
+                float(sigmas["leg"]),
+                float(sigmas["position"]),
+                float(sigmas["orientation"]),
+                distribution="normal",
+            )
+        except (KeyError, TypeError, ValueError):
+            raise ValidationError(f"{where}: noise needs leg, position and orientation σ") from None
+    return tuple(order), cov[np.ix_(index, index)], gauge[index], noise
 
 
 def _free_vary(inst: MeasurementModel) -> NDArray[np.bool_]:

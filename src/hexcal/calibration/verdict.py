@@ -31,18 +31,14 @@ geometry should not be used (the CLI writes it only with ``--force``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.calibration.accuracy import (
-    expected_validation,
-    machine_mask,
-    predicted_instrument_accuracy,
-    predicted_pose_accuracy,
-)
+from hexcal.calibration.accuracy import predicted_pose_accuracy
+from hexcal.calibration.accuracy_reasons import accuracy_findings
+from hexcal.calibration.reasons import Reason, Verdict
 from hexcal.core.geometry import Geometry
 from hexcal.errors import HexcalError
 
@@ -66,52 +62,6 @@ GROSS_FACTOR = 5.0
 #: A combination whose predicted σ exceeds the limit is poorly determined (``warn``); beyond
 #: this many times the limit it is not determined at all (``fail``).
 FAIL_FACTOR = 3.0
-
-SEVERITIES = ("info", "warn", "fail")
-
-
-@dataclass(frozen=True)
-class Reason:
-    """One finding: ``code`` (stable, for programs), ``severity`` (info|warn|fail), ``message``."""
-
-    code: str
-    severity: str
-    message: str
-    data: dict[str, Any] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"code": self.code, "severity": self.severity, "message": self.message}
-        if self.data:
-            out["data"] = self.data
-        return out
-
-
-@dataclass(frozen=True)
-class Verdict:
-    """``status`` (pass|warn|fail) and the reasons; ``accuracy`` the predicted pose accuracy."""
-
-    reasons: tuple[Reason, ...]
-    accuracy: dict[str, float] | None = None
-
-    @property
-    def status(self) -> str:
-        worst = max((SEVERITIES.index(r.severity) for r in self.reasons), default=0)
-        return ("pass", "warn", "fail")[worst]
-
-    @property
-    def failed(self) -> bool:
-        """True when the calibrated geometry should not be written (without ``--force``)."""
-        return self.status == "fail"
-
-    def codes(self, severity: str | None = None) -> tuple[str, ...]:
-        return tuple(r.code for r in self.reasons if severity is None or r.severity == severity)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "verdict": self.status,
-            "reasons": [r.to_dict() for r in self.reasons],
-            "accuracy": self.accuracy,
-        }
 
 
 def combination_name(vector: NDArray[np.float64], names: tuple[str, ...], top: int = 4) -> str:
@@ -333,112 +283,14 @@ def assess(
     if problem is not None and not robust:
         reasons += _outlier_reasons(result, problem, noise)
     acc = None
-    machine = set(result.start.machine_names())
-    rows = np.array([n in machine for n in names])
-    if accuracy and rows.any() and np.all(np.isfinite(result.covariance[np.ix_(rows, rows)])):
-        cov = result.covariance[np.ix_(rows, rows)]
-        rigid = None if result.gauge_directions is None else result.gauge_directions[rows]
-        mask = machine_mask(result.geometry, names=names)
-        acc = predicted_pose_accuracy(result.geometry, cov, mask, rigid=rigid)
-        reasons.append(
-            Reason(
-                "predicted-accuracy",
-                "info",
-                f"predicted pose error after calibration over the workspace{_rigid_note(rigid)}: "
-                f"position RMS "
-                f"{acc['position_rms_mm']:.3g} mm (worst {acc['position_max_mm']:.3g}), orientation RMS "
-                f"{acc['orientation_rms_rad']:.3g} rad (worst {acc['orientation_max_rad']:.3g})",
-                acc,
-            )
-        )
-        if problem is not None and noise is not None:
-            acc["validation"] = _expected_validation(result, problem, noise, cov, mask, rigid)
-            reasons.append(_validation_reason(acc["validation"]))
-        if problem is not None:
-            acc["instrument"] = _instrument_accuracy(result, problem, mask)
-            reasons += [_instrument_reason(entry) for entry in acc["instrument"] if entry["own_frame"]]
+    if accuracy:
+        acc, found = accuracy_findings(result, problem, noise, names)
+        reasons += found
     verdict = Verdict(tuple(reasons), acc)
     if diagnose is not None:
         extra = diagnose(verdict.status == "fail")
         verdict = Verdict(tuple(reasons) + tuple(extra), acc)
     return verdict
-
-
-def _expected_validation(
-    result: Any, problem: Any, noise: Any, cov: Any, mask: Any, rigid: Any
-) -> dict[str, Any]:
-    """:func:`~hexcal.calibration.accuracy.expected_validation` at the sessions' poses (the
-    estimated true poses, else the measured ones) with their calibrated instruments."""
-    from hexcal.estimation.likelihood import session_noises
-
-    poses = result.poses if result.poses is not None else problem.measured_poses()
-    noises = session_noises(problem, noise)
-    instruments = result.instruments or tuple(p.instrument for p in problem.parts)
-    sessions = [
-        (inst, poses[part.rows], n) for part, inst, n in zip(problem.parts, instruments, noises, strict=True)
-    ]
-    return expected_validation(result.geometry, cov, sessions, mask, rigid)
-
-
-def _validation_reason(expected: dict[str, Any]) -> Reason:
-    own = expected["from_parameters"]
-    return Reason(
-        "expected-validation",
-        "info",
-        f"expected from validate on a new session at such poses (noise included, frames "
-        f"re-registered): position RMS {expected['position_rms_mm']:.3g} mm, orientation RMS "
-        f"{expected['orientation_rms_rad']:.3g} rad, leg RMS {expected['leg_rms_mm']:.3g} mm "
-        f"(the parameters' part: {own['position_rms_mm']:.3g} mm, {own['orientation_rms_rad']:.3g} rad, "
-        f"{own['leg_rms_mm']:.3g} mm)",
-        expected,
-    )
-
-
-def _instrument_accuracy(result: Any, problem: Any, mask: NDArray) -> list[dict[str, Any]]:
-    """The predicted accuracy of what each session's instrument reads, in its own terms
-    (:func:`hexcal.calibration.accuracy.predicted_instrument_accuracy`), per session."""
-    if len(result.names) != problem.n_free:
-        return []
-    full = np.array(problem.full0)
-    full[problem.mask] = result.values
-    machine = problem.free_in(problem.machine)
-    out = []
-    for part in problem.parts:
-        own = problem.free_in(part.block)
-        rows = machine | own
-        acc = predicted_instrument_accuracy(
-            result.geometry,
-            part.instrument,
-            full[part.block],
-            result.covariance[np.ix_(rows, rows)],
-            mask,
-            problem.mask[part.block],
-        )
-        own_frame = not part.instrument.constant_pose_jacobian  # not the platform pose itself
-        out.append(
-            {"session": part.label, "instrument": part.instrument.describe(), "own_frame": own_frame} | acc
-        )
-    return out
-
-
-def _instrument_reason(entry: dict[str, Any]) -> Reason:
-    values = [
-        f"{key.split('_rms_')[0]} RMS {value:.3g} {key.split('_rms_')[1]} "
-        f"(worst {entry[key.replace('_rms_', '_max_')]:.3g})"
-        for key, value in entry.items()
-        if "_rms_" in key
-    ]
-    return Reason(
-        "predicted-instrument-accuracy",
-        "info",
-        f"predicted error of what the instrument reads after calibration ({entry['session']}): "
-        + ", ".join(values),
-        entry,
-    )
-
-
-def _rigid_note(rigid: Any) -> str:
-    return "" if rigid is None else " (up to the frames, re-registered as validate does)"
 
 
 def _outlier_reasons(result: Any, problem: Any, noise: Any) -> list[Reason]:

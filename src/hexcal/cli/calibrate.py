@@ -177,26 +177,38 @@ def cmd_validate(args: argparse.Namespace) -> None:
     """Prediction errors of a calibration (and optionally the nominal geometry) on held-out data."""
     from hexcal.calibration import validate
     from hexcal.io import write_table
-    from hexcal.report import render, validation_dict, validation_table
+    from hexcal.report import render, validation_dict, validation_json, validation_table
 
-    check_outputs(args.out, args.html)
+    check_outputs(args.out, args.html, args.json)
+    if args.folds < 2:
+        raise CommandError(f"--folds must be at least 2, got {args.folds}")
     geometry = load_geometry(args.geometry, args.euler)
     sessions = read_sessions(args, geometry)
     if len(sessions) != 1:
         raise CommandError("validate: give one --data file (validate each session on its own)")
     session = sessions[0]
-    if args.nominal and not session.instrument.determines_pose:
-        raise CommandError(
-            "--nominal with a setup whose frame or tool were calibrated with the machine: validate the "
-            "nominal machine with its own identified setup instead"
-        )
-    calibrated = validate(geometry, session)
-    nominal = validate(load_geometry(args.nominal, geometry.euler), session) if args.nominal else None
+    options = {"folds": args.folds, "seed": args.seed}
+    calibrated = validate(geometry, session, **options)
+    nominal = None
+    if args.nominal:
+        if calibrated.registration is None and session.instrument.setup_dict() is not None:
+            raise CommandError(
+                "--nominal with a setup whose quantities are all fixed: they were calibrated with the "
+                "machine, so the nominal machine cannot be judged through them; leave the frame free "
+                "(auto, or not in fixed:) so that validate re-registers it for each machine"
+            )
+        nominal = validate(load_geometry(args.nominal, geometry.euler), session, **options)
     print(render("validation", validation_dict(calibrated, nominal)))
     if args.out:
         columns, rows, ids, comment = validation_table(calibrated, nominal, calibrated.ids)
         write_table(args.out, columns, rows, ids, comment=comment, missing=True)
         print(f"wrote the per-pose table to {args.out}")
+    if args.json:
+        from hexcal.io import atomic_write
+
+        with atomic_write(args.json) as fh:
+            fh.write(render("validation", validation_json(calibrated, nominal), "json"))
+        print(f"wrote the JSON summary to {args.json}")
     if args.html:
         from hexcal.io import atomic_write
         from hexcal.report import render_html, validation_report
@@ -335,8 +347,24 @@ def register(sub: Any) -> None:
     p = sub.add_parser("validate", help="prediction errors of a calibration on held-out measurements")
     p.add_argument("--geometry", required=True, help=f"calibrated {GEOMETRY_HELP}")
     p.add_argument("--data", required=True, action="append", help="held-out measurement CSV file")
-    p.add_argument("--nominal", help="also validate this geometry, side by side")
+    p.add_argument(
+        "--nominal",
+        help="also validate this geometry, side by side (a free frame or tool re-registered for it too)",
+    )
     p.add_argument("--out", help="per-pose table CSV file")
+    p.add_argument(
+        "--json",
+        metavar="FILE",
+        help="save the summary as JSON (position_rms_mm, orientation_rms_rad, leg_rms_mm, maxima, the "
+        "registration, what the calibration expected)",
+    )
+    p.add_argument(
+        "--folds",
+        type=int,
+        default=5,
+        help="folds of the cross-validated re-registration of a free frame or tool (default 5)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the poses' folds (default 0)")
     p.add_argument("--html", metavar="FILE", help="save a self-contained HTML report with figures")
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument(
@@ -350,7 +378,7 @@ def register(sub: Any) -> None:
     p.set_defaults(
         func=cmd_validate,
         inputs=("geometry", "data", "nominal", "setup"),
-        outputs=("out", "html"),
+        outputs=("out", "html", "json"),
         folders=(),
     )
 

@@ -408,7 +408,10 @@ def estimate_noise(
             break  # the iteration diverges (a gross error): keep the last finite values
         change = float(np.max(np.abs(new / sigmas - 1)))
         sigmas = new
-        if change < rtol and float(np.max(np.abs(step), initial=0.0)) < 1e-6:
+        # the parameters need only be near the fit of these variances (a µm, in solver units):
+        # the final fit below refines them; a group with hardly any redundancy converges
+        # slowly (a factor 4 per step on real data) and would hit max_iter at 1e-6
+        if change < rtol and float(np.max(np.abs(step), initial=0.0)) < 1e-3:
             converged = True
             break
     noises = _session_noises(keys, sigmas, n_sessions)

@@ -211,6 +211,35 @@ class IdentificationResult:
             out["noise_source"] = self.noise_source
         if self.verdict is not None:
             out["verdict"] = self.verdict_status
+        uncertainty = self.machine_uncertainty()
+        if uncertainty is not None:
+            out["uncertainty"] = uncertainty
+        return out
+
+    def machine_uncertainty(self) -> dict[str, Any] | None:
+        """What a later ``validate`` needs to state what it should measure: the identified
+        machine parameters' ``names``, their ``covariance`` (rows as lists), the ``gauge``
+        directions among them (rows, one column per gauge freedom; empty without gauges) and
+        the first session's noise standard deviations ``noise`` (mm, mm, rad). None when the
+        covariance is not finite (a rank-deficient fit)."""
+        machine = set(self.start.machine_names())
+        rows = np.array([n in machine for n in self.names], dtype=bool)
+        if not rows.any():
+            return None
+        cov = self.covariance[np.ix_(rows, rows)]
+        if not np.all(np.isfinite(cov)):
+            return None
+        gauge = (
+            np.zeros((int(rows.sum()), 0)) if self.gauge_directions is None else self.gauge_directions[rows]
+        )
+        out: dict[str, Any] = {
+            "names": [n for n, r in zip(self.names, rows, strict=True) if r],
+            "covariance": cov.tolist(),
+            "gauge": gauge.tolist(),
+        }
+        if self.noise is not None:
+            leg, pos, ang = self.noise.sigmas
+            out["noise"] = {"leg": leg, "position": pos, "orientation": ang}
         return out
 
     def noise_dict(self) -> dict[str, Any] | None:

@@ -93,7 +93,7 @@ class ToolModel(FramedModel):
     def describe(self) -> str:
         if self.identity:
             return "full pose in the base frame"
-        frame = "frame auto" if self.setup.auto else "frame given"
+        frame = f"frame {self.setup.frame_state}"
         return f"tool pose in the instrument frame ({frame})"
 
     def observed(self, data: Measurements) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:

@@ -148,6 +148,14 @@ class Setup:
         return "targets" if self.targets else "tool"
 
     @property
+    def frame_state(self) -> str:
+        """How the instrument frame enters a calibration: ``auto`` (registered from the data,
+        then identified), ``fixed`` (held as given) or ``free`` (identified from the value given)."""
+        if self.frame is None:
+            return "auto"
+        return "fixed" if "instrument_frame" in self.fixed else "free"
+
+    @property
     def auto(self) -> bool:
         """Whether the instrument frame is to be registered from the data."""
         return self.frame is None

@@ -50,7 +50,7 @@ class TargetModel(FramedModel):
         self.size = 3 * self.n_targets
 
     def describe(self) -> str:
-        frame = "frame auto" if self.setup.auto else "frame given"
+        frame = f"frame {self.setup.frame_state}"
         return f"{self.n_targets} target position(s) in the instrument frame ({frame})"
 
     def observed(self, data: TargetMeasurements) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:

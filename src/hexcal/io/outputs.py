@@ -297,9 +297,7 @@ class OutputSet:
         return self._text.getvalue()
 
     def show_text(self) -> None:
-        """Write the standard-output text staged so far now, files staying staged: a command
-        that refuses to write its files still shows why (``identify``'s report of a verdict
-        fail)."""
+        """Write the staged standard output now, the files staying staged (a refusal's report)."""
         self._write_stdout()
         self._text = io.StringIO()
 

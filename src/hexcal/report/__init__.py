@@ -98,6 +98,7 @@ __getattr__, __dir__, __all__ = attach(
         "svg": "figures",
         "tables_page": "html",
         "validation_dict": "convert",
+        "validation_json": "convert",
         "validation_distributions": "figures",
         "validation_errors": "figures",
         "validation_page": "calibration_pages",

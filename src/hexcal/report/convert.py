@@ -109,7 +109,43 @@ def validation_dict(calibrated: Any, nominal: Any | None = None) -> dict[str, An
         "calibrated": calibrated.summary(),
         "nominal": nominal.summary() if nominal is not None else None,
         "instrument": calibrated.instrument,
+        "registration": calibrated.registration,
+        "expected": calibrated.expected,
     }
+
+
+def validation_json(calibrated: Any, nominal: Any | None = None) -> dict[str, Any]:
+    """The JSON of ``hexcal validate --json``: the calibrated machine's figures with their units
+    in the keys (``position_rms_mm``, ``orientation_rms_rad``, ``leg_rms_mm``, their maxima, the
+    instrument's own errors as ``instrument_<what>_rms_mm``), ``poses``, ``instrument``, ``registration``,
+    ``expected``, and the same figures of the ``nominal`` machine when given.
+
+    >>> from types import SimpleNamespace as NS
+    >>> s = dict(poses=3, leg_rms=0.01, leg_max=0.02, position_rms=0.1, position_max=0.2,
+    ...          orientation_rms=1e-5, orientation_max=2e-5, instrument_target_rms=0.05)
+    >>> v = NS(summary=lambda: s, instrument="one target", registration=None, expected=None)
+    >>> body = validation_json(v)
+    >>> body["position_rms_mm"], body["orientation_rms_rad"], body["instrument_target_rms_mm"]
+    (0.1, 1e-05, 0.05)
+    """
+
+    def figures(result: Any) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for key, value in result.summary().items():
+            if key == "poses":
+                out[key] = value
+                continue
+            unit = "rad" if key.removeprefix("instrument_").startswith("orientation") else "mm"
+            out[f"{key}_{unit}"] = value
+        return out
+
+    body = figures(calibrated) | {
+        "instrument": calibrated.instrument,
+        "registration": calibrated.registration,
+        "expected": calibrated.expected,
+    }
+    body["nominal"] = None if nominal is None else figures(nominal) | {"registration": nominal.registration}
+    return body
 
 
 def paper_figure_data(experiment: Any) -> dict[str, Any]:

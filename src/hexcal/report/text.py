@@ -344,7 +344,51 @@ def validation_text(data: dict[str, Any]) -> str:
         if all(not math.isfinite(v) for v in values):
             continue
         lines.append(f"    {label:<30}" + "".join(f"{v * scale:>14.4g}" for v in values))
+    lines += _registration_lines(data.get("registration"))
+    lines += _expected_lines(data.get("expected"))
     return "\n".join(lines)
+
+
+def _registration_lines(record: dict[str, Any] | None) -> list[str]:
+    """How validation re-registered the instrument (:func:`hexcal.calibration.validate`)."""
+    if not record:
+        return []
+    quantities = record.get("quantities") or []
+    kinds = sorted({q.split(".")[0] for q in quantities})
+    return [
+        f"Re-registered on this session ({len(quantities)} quantities: {', '.join(kinds)}) by "
+        f"{record['folds']}-fold cross-validation (seed {record['seed']}): each pose judged by frames "
+        f"fitted to the other folds; the registration on all poses leaves legs at "
+        f"{record['leg_rms_mm']:.3g} mm RMS ({record['noise']})"
+    ]
+
+
+def _expected_lines(expected: dict[str, Any] | None) -> list[str]:
+    """What the calibration's own uncertainty says validation should measure, and the ratio;
+    the same with this session's noise when both are known."""
+    if not expected:
+        return []
+    shown = {"position_rms_mm": "position", "orientation_rms_rad": "orientation", "leg_rms_mm": "legs"}
+    lines = []
+    what = {
+        "calibration": "Expected from the calibration (its uncertainty, the noise of its own sessions)",
+        "session": "Expected with this session's noise (learned by its registration)",
+        "given": "Expected from the calibration (its uncertainty, the noise given)",
+    }
+    for entry in (expected, expected.get("with_session_noise")):
+        if not entry:
+            continue
+        figures = (
+            f"position RMS {entry['position_rms_mm']:.3g} mm, orientation RMS "
+            f"{entry['orientation_rms_rad'] * 1e3:.3g} mrad, leg RMS {entry['leg_rms_mm']:.3g} mm"
+        )
+        ratio = entry.get("measured_over_expected") or {}
+        ratios = ", ".join(f"{shown[k]} {v:.2f}" for k, v in ratio.items() if math.isfinite(v))
+        lines.append(f"{what.get(entry['noise'], 'Expected')}: {figures}")
+        if ratios:
+            lines.append(f"    measured / expected: {ratios}")
+    lines += [f"    warning: {finding}" for finding in expected.get("findings") or []]
+    return lines
 
 
 # -- the former entry points, over the dictionaries -------------------------------------
