@@ -43,6 +43,7 @@ from hexcal.calibration.accuracy import (
     predicted_instrument_accuracy,
     predicted_pose_accuracy,
 )
+from hexcal.calibration.stroke_structure import stroke_findings
 from hexcal.core.geometry import Geometry
 from hexcal.errors import HexcalError
 
@@ -357,6 +358,7 @@ def assess(
         if problem is not None:
             acc["instrument"] = _instrument_accuracy(result, problem, mask)
             reasons += [_instrument_reason(entry) for entry in acc["instrument"] if entry["own_frame"]]
+    reasons += [Reason(*finding) for finding in stroke_findings(result, problem)]
     verdict = Verdict(tuple(reasons), acc)
     if diagnose is not None:
         extra = diagnose(verdict.status == "fail")

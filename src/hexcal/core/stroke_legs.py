@@ -189,7 +189,8 @@ class StrokeLegs(LegModel):
         extra = sorted(set(map(str, terms)) - set(model.terms))
         if extra:
             raise GeometryError(
-                f"{where}.terms: {', '.join(extra)} beyond degree {model.degree} (terms {', '.join(model.terms)})"
+                f"{where}.terms: {', '.join(extra)} beyond degree {model.degree} "
+                f"(terms {', '.join(model.terms)})"
             )
         rows = [_six(terms.get(t, [0.0] * N_LEGS), f"{where}.terms.{t}") for t in model.terms]
         return model, np.stack(rows, axis=1)
