@@ -185,3 +185,32 @@ def test_auto_chooses_linear_on_a_linear_machine():
     )
     assert choice.choice == "linear", choice.lines()
     assert isinstance(session, Session)
+
+
+def test_simulation_of_a_stroke_machine_and_the_reverse():
+    """Monte Carlo (batched ML) with the true and the fitted leg models differing: the stroke
+    fit predicts the validation poses at the noise level on either machine, linear legs do
+    not on the stroke machine (its ±0.2 mm curves)."""
+    from hexcal.simulation import STRATEGIES, run_study
+
+    nominal, true, _ = stroke_machine()
+    linear_true = true.replace(leg_model=LinearLegs(), leg_terms=None)
+    stroke_nominal = start_for("stroke:3", nominal)
+    rms = {}
+    for fitted, machine in ((nominal, true), (stroke_nominal, true), (stroke_nominal, linear_true)):
+        fit = fit_for("joints,l0,gains", fitted.leg_model)
+        cells = run_study(
+            fitted,
+            machine,
+            ("ml",),
+            {"interior": STRATEGIES["interior"]},
+            [60],
+            {"x1": NOISE},
+            2,
+            0,
+            jobs=1,
+            fit=fit,
+        )
+        rms[(fitted.leg_model.name, machine.leg_model.name)] = cells[0].row()["position_rms"]
+    assert rms[("stroke", "stroke")] < 0.03 and rms[("stroke", "linear")] < 0.03, rms
+    assert rms[("linear", "stroke")] > 0.1, rms
