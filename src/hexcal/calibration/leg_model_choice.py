@@ -11,7 +11,8 @@ to the fitted groups.
 (:func:`choose_leg_model`):
 
 - several sessions: **leave one session out**: the machine fitted on the others predicts it;
-- one session: **K-fold over its poses** (``folds``, dealt at random with ``seed``).
+- one session: **K-fold over its poses** (``folds``, dealt at random with ``seed``; fewer
+  when a held-out fold would keep too few poses to re-register a free instrument).
 
 Each held-out part is judged by :func:`hexcal.calibration.validate` (which re-registers an
 instrument's free frame and tool on the held-out data by its own cross-validation, so that a
@@ -146,12 +147,27 @@ def _splits(sessions: Sequence[Session], folds: int, seed: int) -> tuple[str, li
     if folds < 2:
         raise UsageError(f"folds must be at least 2, got {folds}")
     session = sessions[0]
+    folds = _pose_folds(session, folds)
     fold = np.random.default_rng(seed).permutation(len(session)) % folds
     pairs = [
         ([session.subset(np.flatnonzero(fold != f))], [session.subset(np.flatnonzero(fold == f))])
         for f in range(folds)
     ]
     return f"{folds}-fold over poses", pairs
+
+
+def _pose_folds(session: Session, folds: int) -> int:
+    """The most folds, up to ``folds``, whose held-out parts keep enough poses for
+    :func:`~hexcal.calibration.validate` to re-register the instrument's free quantities in
+    ``folds`` folds of their own (at least 2)."""
+    free = int(np.sum(session.instrument.parameters().vary))
+    if not free and not session.instrument.unregistered:
+        return folds
+    for k in range(folds, 1, -1):
+        held = len(session) // k
+        if held - -(-held // folds) >= max(free, 3):
+            return k
+    return 2
 
 
 def choose_leg_model(
