@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 from hexcal.calibration.accuracy import predicted_pose_accuracy
 from hexcal.calibration.accuracy_reasons import accuracy_findings
 from hexcal.calibration.reasons import Reason, Verdict
+from hexcal.calibration.stroke_structure import stroke_findings
 from hexcal.core.geometry import Geometry
 from hexcal.errors import HexcalError
 
@@ -286,6 +287,7 @@ def assess(
     if accuracy:
         acc, found = accuracy_findings(result, problem, noise, names)
         reasons += found
+    reasons += [Reason(*finding) for finding in stroke_findings(result, problem)]
     verdict = Verdict(tuple(reasons), acc)
     if diagnose is not None:
         extra = diagnose(verdict.status == "fail")

@@ -109,6 +109,7 @@ def cmd_identify(args: argparse.Namespace) -> None:
     nominal = load_geometry(args.geometry, args.euler)
     sessions = read_sessions(args, nominal)
     noise = identify_noise(args)
+    nominal, fit, choice = _leg_model(args, nominal, sessions, noise)
     # limits relative to the machine: the library's are 1 mm (1e-3 for gains) per unit of scale
     radius = float(np.max(np.linalg.norm(nominal.platform_joints[:, :2], axis=1)))
     result = estimate(
@@ -116,7 +117,7 @@ def cmd_identify(args: argparse.Namespace) -> None:
         sessions,
         args.method,
         noise=noise,
-        fit=args.fit,
+        fit=fit,
         fix=args.fix or (),
         robust=args.robust,
         sigma_limit=args.sigma_limit * radius,
@@ -140,6 +141,8 @@ def cmd_identify(args: argparse.Namespace) -> None:
     if args.setup:
         calibration["setup"] = [str(s) for s in args.setup] if len(args.setup) > 1 else str(args.setup[0])
     calibration["outliers"] = list(result.outliers)
+    if choice is not None:
+        calibration["leg_model_choice"] = choice.to_dict()
     if result.convention:
         calibration["gauge"] = result.convention
     name = f"{nominal.name}-calibrated" if nominal.name else "calibrated"
@@ -151,7 +154,8 @@ def cmd_identify(args: argparse.Namespace) -> None:
             fh.write(text + "\n")
     if args.json:
         with atomic_write(args.json) as fh:
-            fh.write(render("identification", identification_dict(result), "json"))
+            record = identification_dict(result) | ({"leg_model_choice": choice.to_dict()} if choice else {})
+            fh.write(render("identification", record, "json"))
     if args.html:
         from hexcal.report import identification_report, render_html
 
@@ -171,6 +175,23 @@ def cmd_identify(args: argparse.Namespace) -> None:
             "hexcal: warning: the registered frame is not saved: give --setup-out FILE to validate later"
             + (f" ({', '.join(unsaved)})" if len(sessions) > 1 else "")
         )
+
+
+def _leg_model(args: argparse.Namespace, nominal: Any, sessions: list[Any], noise: Any) -> tuple:
+    """The nominal geometry with the ``--leg-model`` (chosen by cross-validation for ``auto``,
+    the choice and its scores printed), the fitted groups with the model's own, the choice."""
+    from hexcal.calibration.leg_model_choice import choose_leg_model, fit_for, parse_leg_model, start_for
+
+    spec, choice = args.leg_model, None
+    if spec is None:
+        return nominal, args.fit, None
+    if parse_leg_model(spec)[0] == "auto":
+        fix = args.fix or ()
+        choice = choose_leg_model(nominal, sessions, method=args.method, fit=args.fit, fix=fix, noise=noise)
+        print("\n".join(choice.lines()))
+        spec = choice.choice
+    start = start_for(spec, nominal, sessions)
+    return start, fit_for(args.fit, start.leg_model), choice
 
 
 def cmd_validate(args: argparse.Namespace) -> None:
@@ -291,6 +312,13 @@ def register(sub: Any) -> None:
         nargs="+",
         metavar="NAME",
         help="parameters or groups to hold, e.g. u1.z l0_1 frame (default: none)",
+    )
+    p.add_argument(
+        "--leg-model",
+        metavar="NAME[:DEGREE]",
+        help="how readings become leg lengths: linear (l0 + g dl), stroke[:DEGREE] (plus a Legendre "
+        "curve of each leg's reading over its stroke, degree 2-8, default 3; its terms fitted), or auto "
+        "(chosen by cross-validation; default: the geometry's own model)",
     )
     p.add_argument(
         "--robust", action="store_true", help="find and leave out outliers (default: keep every observation)"

@@ -76,9 +76,10 @@ def leg_blocks(
         for a in range(3)
     ]
     sq = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-    theta = params[:, :, None, 6:]  # (T, 6, 1, q)
-    lengths = model.length(theta, readings)
-    dmodel = model.length_jacobian(theta, readings)  # (T, 6, m, q)
+    # the leg model's per-leg functions take the leg axis last (its settings may be per leg)
+    theta, by_pose = params[:, None, :, 6:], np.swapaxes(readings, -1, -2)  # (T, 1, 6, q), (T, m, 6)
+    lengths = np.swapaxes(model.length(theta, by_pose), -1, -2)
+    dmodel = np.swapaxes(model.length_jacobian(theta, by_pose), 1, 2)  # (T, 6, m, q)
     jac = np.empty((*sq.shape, params.shape[-1]))
     if variant == "paper":
         r = sq - lengths**2
@@ -239,7 +240,7 @@ def solve_legs(
     iterations = np.zeros((t, 6), dtype=int)
     lam, nu = np.full((t, 6), LAMBDA0), np.full((t, 6), 2.0)
     cost = 0.5 * np.sum(r**2, axis=2)
-    size = np.abs(model.length(p0[:, :, None, 6:], readings))
+    size = np.abs(np.swapaxes(model.length(p0[:, None, :, 6:], np.swapaxes(readings, -1, -2)), -1, -2))
     floor = rounding_floor(np.abs(r) + (size**2 if variant == "paper" else size), (2,))
     unit = np.where(col > 0, col, 1.0)
     for _ in range(max_iter):

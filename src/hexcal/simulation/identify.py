@@ -144,12 +144,15 @@ def campaign_bounds(
     for trials with an unreachable pose. ``mask`` are the identified machine parameters
     (default joints and ``l0``) and ``rows`` those of them the mean is over (default all).
     """
+    from hexcal.core.stroke_legs import with_leg_model
     from hexcal.estimation import bound_mean_abs_error
 
     if not np.any(noise.pose_cov()) and noise.sigmas[0] == 0:
         return None
     ok = ~np.any(np.isnan(reached), axis=(1, 2))
     out = np.full(len(reached), np.nan)
+    if true is not None and true.leg_model != nominal.leg_model:  # the fitted model's bound
+        true = with_leg_model(true, nominal.leg_model)
     if true is not None:
         if ok.all():
             return bound_mean_abs_error(true, reached, noise, mask, rows)
