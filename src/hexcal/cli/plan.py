@@ -162,7 +162,7 @@ def cmd_observability(args: argparse.Namespace) -> None:
 
     check_outputs(args.json, args.html)
     if args.html:
-        from hexcal.report.html_reports import check_html_target
+        from hexcal.report import check_html_target
 
         check_html_target(args.html, [args.geometry, args.poses, args.test_poses], [args.json])
     geometry = load_geometry(args.geometry, args.euler)
@@ -196,7 +196,7 @@ def cmd_observability(args: argparse.Namespace) -> None:
         print(f"wrote {args.json}")
     if args.html:
         from hexcal.cli.common import inputs_record
-        from hexcal.report.html_reports import observability_report, render_html
+        from hexcal.report import observability_report, render_html
 
         files = {
             "geometry": args.geometry,
@@ -237,7 +237,7 @@ def cmd_select(args: argparse.Namespace) -> None:
 
     check_outputs(args.out, args.json, args.html)
     if args.html:
-        from hexcal.report.html_reports import check_html_target
+        from hexcal.report import check_html_target
 
         check_html_target(args.html, [args.geometry], [args.out, args.json])
     geometry = load_geometry(args.geometry, args.euler)
@@ -282,7 +282,7 @@ def cmd_select(args: argparse.Namespace) -> None:
     print(f"wrote {n} pose(s) to {args.out}")
     if args.html:
         from hexcal.cli.common import inputs_record
-        from hexcal.report.html_reports import render_html, selection_report
+        from hexcal.report import render_html, selection_report
 
         page = selection_report(data, selection.poses, geometry.workspace, inputs_record({}, args))
         with atomic_write(args.html) as fh:

@@ -161,7 +161,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
             fh.write(render("study", study, "json"))
         columns, values, ids, comment = study_table(rows)
         write_table(out / "study.csv", columns, values, ids=ids, comment=comment)
-        from hexcal.report.html_reports import study_note
+        from hexcal.report import study_note
 
         plot_study(rows, out / "study.png", study_note(study))
         print(f"wrote {out / 'study.json'}, study.csv and study.png")
@@ -221,8 +221,7 @@ def cmd_paper(args: argparse.Namespace) -> None:
     elapsed = time.perf_counter() - start
     print(render("paper", summary))
     print(f"({elapsed:.1f} s)")
-    from hexcal.report import paper_figure_data
-    from hexcal.report.html_reports import paper_note
+    from hexcal.report import paper_figure_data, paper_note
 
     figures = paper_figure_data(experiment) | {"note": paper_note(summary)}
     if args.html:
@@ -247,7 +246,7 @@ def _check_html(args: argparse.Namespace, inputs: list[str], outputs: list[str])
     from pathlib import Path
 
     from hexcal.cli.common import check_outputs
-    from hexcal.report.html_reports import check_html_target
+    from hexcal.report import check_html_target
 
     check_html_target(args.html, inputs, [Path(args.out) / name for name in outputs] if args.out else [])
     check_outputs(args.html)
@@ -256,14 +255,15 @@ def _check_html(args: argparse.Namespace, inputs: list[str], outputs: list[str])
 def _write_html(
     args: argparse.Namespace, builder: str, data: Any, files: dict[str, str], *extra: Any
 ) -> None:
-    """Write the self-contained HTML report of ``builder`` (html_reports) atomically."""
+    """Write the self-contained HTML report of ``builder`` (a :mod:`hexcal.report` page builder)
+    atomically."""
+    import hexcal.report as report
     from hexcal.cli.common import inputs_record
     from hexcal.io import atomic_write
-    from hexcal.report import html_reports
 
     inputs = inputs_record({k: v for k, v in files.items() if v != "random"}, args)
     with atomic_write(args.html) as fh:
-        fh.write(html_reports.render_html(getattr(html_reports, builder)(data, *extra, inputs)))
+        fh.write(report.render_html(getattr(report, builder)(data, *extra, inputs)))
     print(f"wrote the HTML report to {args.html}")
 
 
