@@ -25,8 +25,9 @@ array([  0.,   0., 800.,   0.,   0.,   0.])
 With an instrument in its own frame (a laser tracker, docs/formats.md "Setup file"), the
 same few names do the whole calibration: ``setup = hexcal.load_setup("tracker.yaml")``,
 ``sessions = hexcal.read_sessions(["monday.csv", "tuesday.csv"], [setup], geometry.euler)``,
-``result = hexcal.estimate(geometry, sessions)`` (one machine, each session its own
-instrument frame; ``result.verdict.status`` is pass, warn or fail), then
+``result = hexcal.estimate(geometry, sessions, noise="auto")`` (one machine, each session
+its own instrument frame, the noise learned from the data as ``hexcal identify`` does;
+``result.verdict.status`` is pass, warn or fail), then
 ``hexcal.validate(result.geometry, held_out_session)``.
 
 Public names
