@@ -32,7 +32,7 @@ angle = st.floats(-np.pi, np.pi, allow_nan=False)
 
 
 def test_default_convention_is_intrinsic_xyz():
-    # FORMATS.md: R = Rx(a) @ Ry(b) @ Rz(c), scipy's "XYZ"
+    # docs/formats.md "Conventions": R = Rx(a) @ Ry(b) @ Rz(c), scipy's "XYZ"
     assert DEFAULT_EULER == "XYZ"
     assert POSE_NAMES == ("x", "y", "z", "a", "b", "c")
     a, b, c = 0.3, -0.2, 0.7

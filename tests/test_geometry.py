@@ -54,7 +54,7 @@ def test_dict_round_trip_of_presets_is_exact(name):
     geometry = preset(name)
     data = geometry.to_dict()
     assert_same_geometry(Geometry.from_dict(data), geometry)
-    # through YAML text as well (the geometry file of FORMATS.md)
+    # through YAML text as well (docs/formats.md "Geometry file")
     assert_same_geometry(Geometry.from_dict(yaml.safe_load(yaml.safe_dump(data))), geometry)
 
 
@@ -277,7 +277,7 @@ def test_calibration_metadata_is_not_shared(nominal):
 
 
 def test_parameter_names_follow_formats_md():
-    # FORMATS.md: "u1.x u1.y u1.z ... u6.z s1.x ... s6.z l0_1 ... l0_6 g1 ... g6"
+    # docs/formats.md "Conventions": "u1.x u1.y u1.z ... u6.z s1.x ... s6.z l0_1 ... l0_6 g1 ... g6"
     expected = []
     for joint in ("u", "s"):
         for leg in range(1, 7):

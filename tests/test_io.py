@@ -1,4 +1,4 @@
-"""File I/O of hexcal (FORMATS.md): geometry YAML, pose/measurement/leg CSV, atomic writes.
+"""File I/O of hexcal (docs/formats.md): geometry YAML, pose/measurement/leg CSV, atomic writes.
 
 Every reader error must be an :class:`hexcal.io.InputError` whose one-line message names the
 file and, where it applies, the line and the column.
@@ -110,7 +110,7 @@ def test_save_load_round_trip_of_presets_is_exact(tmp_path, name):
     assert loaded.calibration is None
     text = path.read_text(encoding="utf-8")
     assert "units: mm" in text
-    assert "a_deg" in text  # angles are written in degrees (FORMATS.md)
+    assert "a_deg" in text  # angles are written in degrees (docs/formats.md "Geometry file")
 
 
 def test_save_load_round_trip_of_a_general_geometry(tmp_path):

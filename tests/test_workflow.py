@@ -370,7 +370,7 @@ def test_leg_gains_are_recovered_from_64_corners():
 
 
 def independent_fit(start: np.ndarray, data: Measurements, euler: str) -> tuple[np.ndarray, float]:
-    """Leg-length residual fit written from FORMATS.md alone: scipy LM, finite differences.
+    """Leg-length residual fit written from docs/formats.md alone: scipy LM, finite differences.
 
     Returns the 42 identified parameters and the cost ``0.5 * sum(r**2)``.
     """

@@ -21,6 +21,39 @@ array([  0.,   0., 800.,   0.,   0.,   0.])
 >>> result = hexcal.estimate(nominal, data, "length")
 >>> result.rank, len(result.names)
 (42, 42)
+
+With an instrument in its own frame (a laser tracker, docs/formats.md "Setup file"), the
+same few names do the whole calibration: ``setup = hexcal.load_setup("tracker.yaml")``,
+``sessions = hexcal.read_sessions(["monday.csv", "tuesday.csv"], [setup], geometry.euler)``,
+``result = hexcal.estimate(geometry, sessions, noise="auto")`` (one machine, each session
+its own instrument frame, the noise learned from the data as ``hexcal identify`` does;
+``result.verdict.status`` is pass, warn or fail), then
+``hexcal.validate(result.geometry, held_out_session)``.
+
+Public names
+------------
+- ``Geometry``, ``preset``, ``PRESETS``, ``load_geometry``, ``save_geometry``: the machine
+  and its geometry file (docs/formats.md "Geometry file").
+- ``inverse_kinematics``, ``forward_kinematics``, ``pose_jacobian``, ``leg_lengths``,
+  ``leg_readings``, ``workspace_corners``, ``random_poses``: kinematics and the workspace.
+- ``ParameterSet``, ``select_parameters``, ``NoiseModel``: the parameters a fit varies and
+  the measurement noise.
+- ``Setup``, ``load_setup``, ``save_setup``, ``instrument_for``, ``MeasurementModel``,
+  ``FullPoseModel``, ``ToolModel``, ``TargetModel``: instruments and their setup files.
+- ``Session``, ``read_session``, ``read_sessions``, ``write_session_data``, ``Measurements``,
+  ``TargetMeasurements``, ``read_measurements``, ``write_measurements``,
+  ``read_target_measurements``, ``write_target_measurements``, ``read_tool_measurements``:
+  measurement sessions and their files (docs/formats.md "Sessions").
+- ``read_poses``, ``write_poses``, ``read_legs``, ``write_legs``: pose and leg files.
+- ``estimate``, ``ESTIMATORS``, ``IdentificationResult``, ``Problem``, ``identify_robust``,
+  ``Verdict``: identification from one or several sessions, with its verdict.
+- ``validate``, ``ValidationResult``: prediction errors on held-out data.
+- ``compensate``: leg commands that bring the calibrated machine to targets.
+- ``candidate_poses``, ``check_feasibility``, ``analyse_poses``, ``plan_selection``,
+  ``select_poses``: planning (candidate poses, observability, optimal selection).
+- ``simulate_session``, ``simulate_measurements``, ``run_study``, ``run_paper_experiment``:
+  simulated sessions and Monte Carlo studies.
+- ``HexcalError``, ``__version__``: the base class of hexcal's one-line errors; the version.
 """
 
 import os as _os
@@ -58,6 +91,7 @@ __version__ = "0.1.0"
 _PUBLIC = {
     "Geometry": "core",
     "preset": "core",
+    "PRESETS": "core",
     "inverse_kinematics": "core",
     "forward_kinematics": "core",
     "pose_jacobian": "core",
@@ -67,6 +101,8 @@ _PUBLIC = {
     "random_poses": "core",
     "ParameterSet": "core",
     "select_parameters": "core",
+    "NoiseModel": "core",
+    "compensate": "core",
     "Measurements": "instruments",
     "TargetMeasurements": "instruments",
     "MeasurementModel": "instruments",
@@ -76,30 +112,45 @@ _PUBLIC = {
     "Session": "instruments",
     "Setup": "instruments",
     "instrument_for": "instruments",
-    "NoiseModel": "core",
-    "estimate": "calibration",
     "ESTIMATORS": "estimation",
     "IdentificationResult": "estimation",
     "Problem": "estimation",
     "identify_robust": "estimation",
+    "estimate": "calibration",
     "validate": "calibration",
-    "compensate": "core",
+    "ValidationResult": "calibration",
+    "Verdict": "calibration",
     "analyse_poses": "design",
+    "plan_selection": "design",
     "select_poses": "design",
     "candidate_poses": "design",
+    "check_feasibility": "design",
+    "simulate_session": "simulation",
+    "simulate_measurements": "simulation",
     "run_paper_experiment": "simulation",
     "run_study": "simulation",
     "load_geometry": "io",
     "save_geometry": "io",
     "load_setup": "io",
     "save_setup": "io",
+    "read_session": "io",
+    "read_sessions": "io",
+    "write_session_data": "io",
     "read_target_measurements": "io",
+    "write_target_measurements": "io",
     "read_tool_measurements": "io",
     "read_measurements": "io",
+    "write_measurements": "io",
     "read_poses": "io",
     "write_poses": "io",
+    "read_legs": "io",
+    "write_legs": "io",
     "HexcalError": "errors",
 }
 
-__getattr__, __dir__, __all__ = attach(__name__, _PUBLIC)
+__getattr__, _dir, __all__ = attach(__name__, _PUBLIC)
 __all__ = [*__all__, "__version__"]
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -2,40 +2,77 @@
 the bound, the outlier check and the verdict), validation on held-out data, the predicted
 accuracy (the one formula), the verdict and its diagnoses. Imports :mod:`hexcal.core`,
 :mod:`hexcal.instruments` and :mod:`hexcal.estimation`.
+
+Public names
+------------
+- ``estimate``, ``AUTO``: identify the machine (and each session's free instrument
+  quantities) from one or several sessions; ``noise=AUTO`` learns the noise from the data.
+- ``validate``, ``ValidationResult``: prediction errors of a calibration on held-out data.
+- ``Verdict``, ``Reason``, ``SEVERITIES``, ``assess``, ``FAIL_FACTOR``, ``MAX_CHANGE``,
+  ``SIGMA_LIMITS``: the verdict (pass, warn or fail) and its reasons, as estimate
+  attaches it to its result.
+- ``diagnose``, ``Quality``: the likely cause of a bad fit (degrees, gains, Euler sequence...).
+- ``predicted_pose_accuracy``, ``predicted_pose_errors``, ``pose_error_map``: the predicted
+  pose accuracy after calibration.
+
+Other names of the lazy map below (limits, Jacobians and registration steps the verdict and
+the planning layer share) are not part of the API.
 """
 
 from hexcal._lazy import attach
 
-__getattr__, __dir__, __all__ = attach(
-    __name__,
-    {
-        "AUTO": "identify",
-        "BETTER": "diagnosis",
-        "EULER_SEQUENCES": "diagnosis",
-        "FAIL_FACTOR": "verdict",
-        "GROSS_FACTOR": "verdict",
-        "MAX_CHANGE": "verdict",
-        "Quality": "diagnosis",
-        "Reason": "reasons",
-        "SEVERITIES": "reasons",
-        "SIGMA_LIMITS": "verdict",
-        "ValidationResult": "validation",
-        "Verdict": "reasons",
-        "assess": "verdict",
-        "change_limits": "verdict",
-        "combination_name": "verdict",
-        "diagnose": "diagnosis",
-        "estimate": "identify",
-        "instrument_poses": "validation",
-        "machine_jacobian": "accuracy",
-        "machine_size": "verdict",
-        "parameter_limits": "verdict",
-        "pose_error_map": "accuracy",
-        "predicted_pose_accuracy": "accuracy",
-        "predicted_pose_errors": "accuracy",
-        "register_sessions": "identify",
-        "rotation_vector_map": "accuracy",
-        "undetermined": "verdict",
-        "validate": "validation",
-    },
-)
+_NAMES = {
+    "AUTO": "identify",
+    "BETTER": "diagnosis",
+    "EULER_SEQUENCES": "diagnosis",
+    "FAIL_FACTOR": "verdict",
+    "GROSS_FACTOR": "verdict",
+    "MAX_CHANGE": "verdict",
+    "Quality": "diagnosis",
+    "Reason": "reasons",
+    "SEVERITIES": "reasons",
+    "SIGMA_LIMITS": "verdict",
+    "ValidationResult": "validation",
+    "Verdict": "reasons",
+    "assess": "verdict",
+    "change_limits": "verdict",
+    "combination_name": "verdict",
+    "diagnose": "diagnosis",
+    "estimate": "identify",
+    "instrument_poses": "validation",
+    "machine_jacobian": "accuracy",
+    "machine_size": "verdict",
+    "parameter_limits": "verdict",
+    "pose_error_map": "accuracy",
+    "predicted_pose_accuracy": "accuracy",
+    "predicted_pose_errors": "accuracy",
+    "register_sessions": "identify",
+    "rotation_vector_map": "accuracy",
+    "undetermined": "verdict",
+    "validate": "validation",
+}
+
+__all__ = [
+    "AUTO",
+    "FAIL_FACTOR",
+    "MAX_CHANGE",
+    "SEVERITIES",
+    "SIGMA_LIMITS",
+    "Quality",
+    "Reason",
+    "ValidationResult",
+    "Verdict",
+    "assess",
+    "diagnose",
+    "estimate",
+    "pose_error_map",
+    "predicted_pose_accuracy",
+    "predicted_pose_errors",
+    "validate",
+]
+
+__getattr__, _dir, _names = attach(__name__, _NAMES)
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -1,4 +1,4 @@
-"""Conventions shared by all of hexcal, defined once (see FORMATS.md).
+"""Conventions shared by all of hexcal, defined once (docs/formats.md "Conventions").
 
 - Lengths are millimetres.
 - A pose is ``(x, y, z, a, b, c)``: the platform origin in the base frame and

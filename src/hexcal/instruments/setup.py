@@ -1,7 +1,7 @@
 """The instrument setup: where the instrument stands and what it sees on the platform.
 
 A :class:`Setup` holds the instrument frame (the base frame's pose in the instrument frame,
-FORMATS.md "Measurement setup file", or ``None`` for ``auto``), the targets on the platform
+docs/formats.md "Setup file", or ``None`` for ``auto``), the targets on the platform
 (position instruments: laser-tracker SMRs) or the tool frame (pose instruments: 6-DOF probes,
 cameras), and which of them are ``fixed``. Its parameters, appended after the machine's 48,
 are ``frame.x frame.y frame.z frame.a frame.b frame.c``, then ``t1.x t1.y t1.z ...`` or
@@ -80,7 +80,7 @@ def _pose_mapping(pose: NDArray[np.float64]) -> dict[str, float]:
 
 @dataclass(frozen=True, eq=False)
 class Setup:
-    """An instrument setup (FORMATS.md).
+    """An instrument setup (docs/formats.md "Setup file").
 
     Parameters
     ----------
@@ -269,7 +269,8 @@ class Setup:
         return cls(frame, dict(targets or {}), tool, tuple(fixed), euler, calibration)
 
     def to_dict(self) -> dict[str, Any]:
-        """The YAML mapping (FORMATS.md): angles in degrees, ``auto`` for an unknown frame."""
+        """The YAML mapping (docs/formats.md "Setup file"): angles in degrees, ``auto`` for an
+        unknown frame."""
         out: dict[str, Any] = {"units": "mm"}
         if self.euler is not None:
             out["euler"] = self.euler

@@ -1,4 +1,4 @@
-"""Geometry files (YAML, FORMATS.md) and presets by name."""
+"""Geometry files (YAML, docs/formats.md "Geometry file") and presets by name."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from hexcal.io.outputs import OutputSet
 
 
 def load_geometry(spec: str | os.PathLike[str]) -> Geometry:
-    """A geometry from a preset name or a YAML file (FORMATS.md).
+    """A geometry from a preset name or a YAML file (docs/formats.md "Geometry file").
 
     The file must be a regular file; it is read with :func:`hexcal.io.inputs.load_yaml`
     (safe tags only, limits on nesting and on aliases), validated by :class:`Geometry` and

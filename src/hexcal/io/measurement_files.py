@@ -51,7 +51,7 @@ def _orientation_group(table: Table) -> str:
 
 
 def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
-    """Poses ``(m, 6)`` in mm and rad from a table's pose columns (FORMATS.md)."""
+    """Poses ``(m, 6)`` in mm and rad from a table's pose columns (docs/formats.md "Pose file")."""
     group = _orientation_group(table)
     both = table.numbers(("x", "y", "z", *ORIENTATION_GROUPS[group]))  # each line split once
     position, values = both[:, :3], both[:, 3:]

@@ -1,4 +1,4 @@
-"""Setup files (YAML, FORMATS.md "Measurement setup file"): read, validate, write."""
+"""Setup files (YAML, docs/formats.md "Setup file"): read, validate, write."""
 
 from __future__ import annotations
 

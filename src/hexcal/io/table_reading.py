@@ -1,7 +1,7 @@
 """Reading table files: the one reader of every table hexcal reads.
 
-:func:`read_table` and :func:`iter_tables` read every table hexcal reads (FORMATS.md, with
-extensions marked *); :mod:`hexcal.io.tables` holds the rows and converts the numbers. One
+:func:`read_table` and :func:`iter_tables` read every table hexcal reads (docs/formats.md
+"Tables"; * marks extensions); :mod:`hexcal.io.tables` holds the rows and converts the numbers. One
 line is one record; blank lines and ``#`` comments (before the header and, *, after it) are
 skipped, and one (*, or two) UTF-8 byte order marks. The delimiter is ``;`` if the header
 holds one, else a tab if it holds one, else ``,`` (or ``delimiter=``); the decimal mark is

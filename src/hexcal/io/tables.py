@@ -1,4 +1,4 @@
-"""CSV tables: the table model behind hexcal's one reader of every table (FORMATS.md).
+"""CSV tables: the table model behind hexcal's one reader of every table (docs/formats.md "Tables").
 
 A :class:`Table` holds a file's data rows as text, block by block (:class:`TableBlock`),
 with their physical line numbers, the file's :class:`Dialect` (delimiter and decimal mark)

@@ -1,5 +1,5 @@
 """Instrument exports: target measurement files and tool pose files as tracker software
-writes them (FORMATS.md "Target measurement file").
+writes them (docs/formats.md "Target measurement file").
 
 Real exports use ``;`` or tabs between fields and decimal commas, and some add a unit row
 under the header. They are read by hexcal's one table reader (:mod:`hexcal.io.tables`), like

@@ -5,57 +5,104 @@ that maps chunks of trials over an executor (:mod:`~hexcal.simulation.runner`), 
 seed paper's experiment (:mod:`~hexcal.simulation.paper`) and the studies
 (:mod:`~hexcal.simulation.study`) as definitions over them. Imports every layer below
 (core to design).
+
+Public names
+------------
+- ``simulate_session``, ``simulate_measurements``: one simulated session of any instrument
+  (or full-pose measurements) of a true machine at commanded poses.
+- ``simulate_campaigns``, ``CampaignData``, ``TrialSeeds``, ``random_machines``,
+  ``true_machines``: many simulated campaigns, seeded per trial.
+- ``run_paper_experiment``, ``PaperExperiment``, ``PAPER_TABLE1``, ``PAPER_VALIDATION``: the
+  seed paper's Table I by Monte Carlo.
+- ``run_study``, ``StudyDefinition``, ``StudyResult``, ``StudyCell``, ``STRATEGIES``,
+  ``PoseStrategy``, ``FixedStrategy``, ``fixed_strategy``, ``InstrumentCampaign``,
+  ``instrument_campaign``: studies of calibration strategies (``hexcal simulate``).
+- ``SerialExecutor``, ``DaskExecutor``, ``Executor``, ``Progress``: where the trials run.
+
+Other names of the lazy map below (chunk functions, batch definitions, the runner's
+internals) are not part of the API.
 """
 
 from hexcal._lazy import attach
 
-__getattr__, __dir__, __all__ = attach(
-    __name__,
-    {
-        "BatchDefinition": "identify",
-        "CHUNKS": "runner",
-        "CampaignData": "protocol",
-        "DaskExecutor": "dask_executor",
-        "ChunkFunction": "runner",
-        "Executor": "runner",
-        "FixedStrategy": "study",
-        "InstrumentCampaign": "instrument_trials",
-        "instrument_campaign": "instrument_trials",
-        "MAX_CHUNK": "runner",
-        "MachineBatch": "protocol",
-        "PAPER_TABLE1": "paper",
-        "PAPER_VALIDATION": "paper",
-        "PaperDefinition": "paper",
-        "PaperExperiment": "paper",
-        "PoseStrategy": "study",
-        "Progress": "runner",
-        "ROW_LABELS": "paper",
-        "STRATEGIES": "study",
-        "SerialExecutor": "runner",
-        "StudyCell": "study",
-        "StudyDefinition": "study",
-        "StudyResult": "study",
-        "TrialSeeds": "protocol",
-        "campaign_bounds": "identify",
-        "chunk_indices": "runner",
-        "dask_executor": "dask_executor",
-        "default_chunk_size": "runner",
-        "fixed_strategy": "study",
-        "identify_batch": "identify",
-        "identify_chunk": "identify",
-        "identify_or_nan": "identify",
-        "identify_trials": "identify",
-        "map_trials": "runner",
-        "paper_trials": "paper",
-        "random_machines": "protocol",
-        "resolve_jobs": "runner",
-        "run_paper_experiment": "paper",
-        "run_study": "study",
-        "simulate_campaigns": "protocol",
-        "simulate_measurements": "protocol",
-        "simulate_session": "protocol",
-        "study_trials": "study",
-        "true_machines": "protocol",
-        "validate": "protocol",
-    },
-)
+_NAMES = {
+    "BatchDefinition": "identify",
+    "CHUNKS": "runner",
+    "CampaignData": "protocol",
+    "ChunkFunction": "runner",
+    "DaskExecutor": "dask_executor",
+    "Executor": "runner",
+    "FixedStrategy": "study",
+    "InstrumentCampaign": "instrument_trials",
+    "MAX_CHUNK": "runner",
+    "MachineBatch": "protocol",
+    "PAPER_TABLE1": "paper",
+    "PAPER_VALIDATION": "paper",
+    "PaperDefinition": "paper",
+    "PaperExperiment": "paper",
+    "PoseStrategy": "study",
+    "Progress": "runner",
+    "ROW_LABELS": "paper",
+    "STRATEGIES": "study",
+    "SerialExecutor": "runner",
+    "StudyCell": "study",
+    "StudyDefinition": "study",
+    "StudyResult": "study",
+    "TrialSeeds": "protocol",
+    "campaign_bounds": "identify",
+    "chunk_indices": "runner",
+    "dask_executor": "dask_executor",
+    "default_chunk_size": "runner",
+    "fixed_strategy": "study",
+    "identify_batch": "identify",
+    "identify_chunk": "identify",
+    "identify_or_nan": "identify",
+    "identify_trials": "identify",
+    "instrument_campaign": "instrument_trials",
+    "map_trials": "runner",
+    "paper_trials": "paper",
+    "random_machines": "protocol",
+    "resolve_jobs": "runner",
+    "run_paper_experiment": "paper",
+    "run_study": "study",
+    "simulate_campaigns": "protocol",
+    "simulate_measurements": "protocol",
+    "simulate_session": "protocol",
+    "study_trials": "study",
+    "true_machines": "protocol",
+    "validate": "protocol",
+}
+
+__all__ = [
+    "PAPER_TABLE1",
+    "PAPER_VALIDATION",
+    "STRATEGIES",
+    "CampaignData",
+    "DaskExecutor",
+    "Executor",
+    "FixedStrategy",
+    "InstrumentCampaign",
+    "PaperExperiment",
+    "PoseStrategy",
+    "Progress",
+    "SerialExecutor",
+    "StudyCell",
+    "StudyDefinition",
+    "StudyResult",
+    "TrialSeeds",
+    "fixed_strategy",
+    "instrument_campaign",
+    "random_machines",
+    "run_paper_experiment",
+    "run_study",
+    "simulate_campaigns",
+    "simulate_measurements",
+    "simulate_session",
+    "true_machines",
+]
+
+__getattr__, _dir, _names = attach(__name__, _NAMES)
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
