@@ -83,7 +83,7 @@ def _run(*args) -> int:
 
 
 def test_cli_validate_json_nominal_and_folds(campaign, tmp_path, capsys):
-    nominal, true, _, calibrated, moved = campaign
+    nominal, true, result, calibrated, moved = campaign
     data = simulate(nominal, true, moved, poses(nominal, 40, 7), NOISE, 0.0, 8)
     held = Session(data, instrument_for(moved))
     write_session_data(tmp_path / "held.csv", held, nominal.euler)
@@ -111,8 +111,9 @@ def test_cli_validate_json_nominal_and_folds(campaign, tmp_path, capsys):
     assert _run(*common, "--setup", free, "--folds", 1) != 0
     assert capsys.readouterr().err.strip().endswith("--folds must be at least 2, got 1")
     fixed = tmp_path / "fixed.yaml"
-    save_setup_dict(instrument_for(moved).setup_dict() | {"fixed": ["instrument_frame", "tool"]}, fixed)
+    own = result.calibrated_instruments()[0].setup_dict()  # identify's --setup-out, then held
+    save_setup_dict(own | {"fixed": ["instrument_frame", "tool"]}, fixed)
     assert _run(*common, "--setup", fixed, "--nominal", "paper-hmt") != 0
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--nominal with a setup whose quantities are all fixed" in err[0]
+    assert len(err) == 1 and "--nominal with a calibrated setup whose quantities are all fixed" in err[0]
     assert not (tmp_path / "x.json").exists()

@@ -212,11 +212,12 @@ def cmd_validate(args: argparse.Namespace) -> None:
     calibrated = validate(geometry, session, **options)
     nominal = None
     if args.nominal:
-        if calibrated.registration is None and session.instrument.setup_dict() is not None:
+        calibrated_setup = (session.instrument.setup_dict() or {}).get("calibration") is not None
+        if calibrated.registration is None and calibrated_setup:
             raise CommandError(
-                "--nominal with a setup whose quantities are all fixed: they were calibrated with the "
-                "machine, so the nominal machine cannot be judged through them; leave the frame free "
-                "(auto, or not in fixed:) so that validate re-registers it for each machine"
+                "--nominal with a calibrated setup whose quantities are all fixed: they were calibrated "
+                "with the machine, so the nominal machine cannot be judged through them; leave the frame "
+                "free (auto, or not in fixed:) so that validate re-registers it for each machine"
             )
         nominal = validate(load_geometry(args.nominal, geometry.euler), session, **options)
     print(render("validation", validation_dict(calibrated, nominal)))
