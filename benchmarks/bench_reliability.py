@@ -10,6 +10,7 @@ the baseline timed in the same run; and for SIGINT and SIGTERM sent to ``paper -
 
 from __future__ import annotations
 
+import argparse
 import os
 import random
 import resource
@@ -52,7 +53,9 @@ def stop_time(sig: int, folder: Path, seed: int) -> tuple[int, float]:
 
 
 def main() -> None:
-    rows = int(sys.argv[1]) if len(sys.argv) > 1 else 1_000_000
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("rows", nargs="?", type=int, default=1_000_000, help="rows for ik and fk")
+    rows = parser.parse_args().rows
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
         base, _ = timed(["preset", "paper-hmt", "--out", "g.yaml"], d)

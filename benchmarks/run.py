@@ -263,7 +263,10 @@ def simulated_corner_data(
 
 def bench_identify(report: Report, nominal: Geometry, quick: bool) -> None:
     """One identification from 15 noisy corner poses, 42 parameters."""
-    header("identification: identify(paper-hmt, 15 noisy corners of paper-hmt-true), 42 parameters")
+    header(
+        "identification: estimate(paper-hmt, 15 noisy corners of paper-hmt-true, 'paper' | 'length'), "
+        "42 parameters"
+    )
     runs = 20 if quick else 100
     true = preset("paper-hmt-true")
     noise = NoiseModel()  # the paper's: U(±0.01 mm) legs, U(±0.025 mm), U(±0.001 rad) poses
@@ -309,7 +312,7 @@ def bench_ml(report: Report, nominal: Geometry, quick: bool) -> None:
     """Maximum-likelihood identification (issue 5): 15 corners, and 1000 random workspace poses."""
     from hexcal.simulation import simulate_measurements
 
-    header("maximum likelihood: identify_ml(paper-hmt, noisy data of paper-hmt-true), 42 parameters")
+    header("maximum likelihood: estimate(paper-hmt, noisy data of paper-hmt-true, 'ml'), 42 parameters")
     true = preset("paper-hmt-true")
     noise = NoiseModel()
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(SEED + 1).spawn(30)]

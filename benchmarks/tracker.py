@@ -29,27 +29,24 @@ import time
 from pathlib import Path
 
 import numpy as np
-from hexcal.estimation.instrument import identify_instrument, instrument_parameters
-from hexcal.instruments.instrument_data import (
-    predict_instrument,
-    simulate_target_measurements,
-    true_poses,
-)
 
 from hexcal.calibration import estimate
+from hexcal.core.geometry import Geometry
+from hexcal.core.kinematics import forward_kinematics, leg_lengths
 from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
 from hexcal.core.workspace import random_poses
 from hexcal.design.instrument_table import format_table, instrument_identifiability
 from hexcal.estimation.gauge import apply_convention, gauge_freedoms
 from hexcal.estimation.problem import Problem
-from hexcal.estimation.uncertainty import model_cramer_rao
-from hexcal.instruments.pose import Measurements
-from hexcal.instruments.targets import TargetModel
+from hexcal.estimation.uncertainty import cramer_rao
+from hexcal.instruments import Session, instrument_for
+from hexcal.instruments.base import MeasurementModel
+from hexcal.simulation import simulate_session
 
 # the tests' general 6-6 machine and tracker setups (one definition for tests and benchmark)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from tracker_cases import general_machines, tracker_setups
+from tracker_cases import general_machines, reached_poses, simulate, tracker_setups
 
 NOISE = NoiseModel(leg=0.005, position=0.015, orientation=2e-5, distribution="normal")
 MISSING = 0.08
@@ -57,31 +54,56 @@ N_POSES = 60
 N_HELD = 50
 
 
+def fit(nominal: Geometry, session: Session, with_bound: bool = False):
+    """One maximum-likelihood identification of ``session`` under the known noise (no
+    verdict; the bound and the outlier check only with ``with_bound``)."""
+    return estimate(nominal, session, "ml", noise=NOISE, with_bound=with_bound, verdict=False)
+
+
+def best_of(n: int, call) -> float:
+    """Best wall time of ``n`` calls, seconds."""
+    times = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        call()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
 def speed() -> None:
     nominal, true = general_machines()
     true_setup, start = tracker_setups(3)
     poses = random_poses(nominal, 100, 1)
-    data = simulate_target_measurements(nominal, true, true_setup, poses, NOISE, MISSING, 2)
-    identify_instrument(nominal, data, start, NOISE)  # warm up (imports)
-    times = []
-    for _ in range(5):
-        t0 = time.perf_counter()
-        identify_instrument(nominal, data, start, NOISE)
-        times.append(time.perf_counter() - t0)
-    readings, reached = true_poses(nominal, true, poses, NOISE, np.random.default_rng(3))
-    meas = Measurements(reached + NOISE.pose_errors(np.random.default_rng(4), (100,)), readings)
-    base = []
-    for _ in range(5):
-        t0 = time.perf_counter()
-        estimate(nominal, meas, "ml", noise=NOISE, with_bound=False)
-        base.append(time.perf_counter() - t0)
+    data = simulate(nominal, true, true_setup, poses, NOISE, MISSING, 2)
+    session = Session(data, instrument_for(start))
+    # the full pose of the same commanded poses, the same protocol and noise
+    full_pose = simulate_session(nominal, true, None, poses, NOISE, 3)
+    fit(nominal, session)  # warm up (imports)
+    fit(nominal, full_pose)
+    tracker = best_of(5, lambda: fit(nominal, session))
+    base = best_of(5, lambda: fit(nominal, full_pose))
+    bound = best_of(5, lambda: fit(nominal, session, with_bound=True))
     print(
-        f"speed: 100 poses, 3 targets, auto frame: {min(times):.3f} s (target <= 1 s); "
-        f"full-pose ml on the same poses {min(base):.3f} s (ratio {min(times) / min(base):.1f})"
+        f"speed: 100 poses, 3 targets, auto frame: {tracker:.3f} s (target <= 1 s; "
+        f"{bound:.3f} s with the bound and the outlier check); "
+        f"full-pose ml on the same poses {base:.3f} s (ratio {tracker / base:.1f})"
     )
 
 
-def prediction_jacobian(problem: Problem, full: np.ndarray, setup, readings: np.ndarray) -> np.ndarray:
+def predict(geometry: Geometry, instrument: MeasurementModel, readings: np.ndarray) -> np.ndarray:
+    """Target positions ``(m, n, 3)`` predicted from leg readings: forward kinematics on
+    ``geometry`` from its home pose, then the instrument at its values; NaN where the forward
+    kinematics fails."""
+    readings = np.asarray(readings, dtype=float).reshape(-1, 6)
+    home = geometry.home_pose if geometry.home_pose is not None else np.zeros(6)
+    fk = forward_kinematics(geometry, leg_lengths(geometry, readings), guess=home)
+    poses = np.where(fk.converged[:, None], fk.poses, home)
+    out = instrument.predict(instrument.parameters().values, poses, geometry.euler)
+    out[~fk.converged] = np.nan
+    return out.reshape(len(readings), -1, 3)
+
+
+def prediction_jacobian(problem: Problem, full: np.ndarray, readings: np.ndarray) -> np.ndarray:
     """d (held-out target predictions) / d (varied parameters), central differences."""
     idx = np.flatnonzero(problem.mask)
     cols = []
@@ -90,8 +112,7 @@ def prediction_jacobian(problem: Problem, full: np.ndarray, setup, readings: np.
         for sign in (1, -1):
             f = full.copy()
             f[k] += sign * 1e-3 * s
-            geo = problem.start.with_vector(f[:48])
-            out.append(predict_instrument(geo, setup.with_vector(f[48:]), readings).ravel())
+            out.append(predict(problem.geometry(f), problem.instruments(f)[0], readings).ravel())
         cols.append((out[0] - out[1]) / (2e-3 * s))
     return np.array(cols).T
 
@@ -100,35 +121,34 @@ def monte_carlo(n_targets: int, trials: int) -> None:
     nominal, true = general_machines()
     true_setup, start = tracker_setups(n_targets)
     poses = random_poses(nominal, N_POSES, 21)
-    held = simulate_target_measurements(nominal, true, true_setup, random_poses(nominal, N_HELD, 22))
+    held = simulate(nominal, true, true_setup, random_poses(nominal, N_HELD, 22))
     full_true = np.concatenate([true.to_vector(gains=True), true_setup.vector()])
-    _, reached = true_poses(nominal, true, poses, None, np.random.default_rng(0))
+    reached = reached_poses(nominal, true, poses)
     errs, bounds, pred_err, pred_bound, failures, times = [], [], [], [], 0, []
     kmat = None
     for trial in range(trials):
-        data = simulate_target_measurements(nominal, true, true_setup, poses, NOISE, MISSING, 1000 + trial)
+        data = simulate(nominal, true, true_setup, poses, NOISE, MISSING, 1000 + trial)
         try:
             t0 = time.perf_counter()
-            out = identify_instrument(nominal, data, start, NOISE)
+            out = fit(nominal, Session(data, instrument_for(start)))
             times.append(time.perf_counter() - t0)
         except Exception as exc:  # count and report
             failures += 1
             print(f"  trial {trial}: {exc}")
             continue
-        problem = Problem(
-            nominal, data, TargetModel(out.setup), parameters=instrument_parameters(nominal, out.setup)
-        )
+        identified = out.instruments[0]
+        problem = Problem(nominal, Session(data, identified))
         gauge = gauge_freedoms(problem, full_true)
         fixed_true = apply_convention(problem, full_true, gauge)
-        got = np.concatenate([out.geometry.to_vector(gains=True), out.setup.vector()])
+        got = np.concatenate([out.geometry.to_vector(gains=True), identified.setup.vector()])
         errs.append((got - fixed_true)[problem.mask])
         rows = np.array([int(i) - 1 for i in data.ids])
-        cov = model_cramer_rao(problem, NOISE, full_true, reached[rows])
+        cov = cramer_rao(problem, NOISE, full_true, reached[rows])
         bounds.append(np.diag(cov))
-        pred = predict_instrument(out.geometry, out.setup, held.readings)
+        pred = predict(out.geometry, identified, held.readings)
         pred_err.append(np.mean(np.sum((pred - held.targets) ** 2, axis=-1)))
         if kmat is None:
-            kmat = prediction_jacobian(problem, full_true, true_setup, held.readings)
+            kmat = prediction_jacobian(problem, full_true, held.readings)
         # mean squared distance per held-out target position under the bound
         pred_bound.append(np.trace(kmat @ cov @ kmat.T) / (kmat.shape[0] / 3))
     errs, bounds = np.array(errs), np.array(bounds)
