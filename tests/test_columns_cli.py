@@ -197,3 +197,14 @@ def test_identify_and_validate_without_a_setup_honour_delimiter_and_decimal(caps
     status, _, err = run(capsys, *identify, "--delimiter", "tab", "--decimal", ",")  # both reach the reader
     assert status == 1 and "column 'x;mm'" in err and "decimal commas" in err.splitlines()[-1]
     assert not (tmp_path / "c").exists()
+
+
+@pytest.mark.parametrize("command", ["validate", "ik", "fk"])
+def test_a_file_without_hexcal_names_and_no_map_says_to_map_them(capsys, command):
+    options = [o for o in COMMANDS[command] if o not in ("--setup", SETUP)]
+    status, _, err = run(capsys, command, *options)
+    assert status == 1
+    assert one_line(err).endswith(
+        "none of the file's columns (leg_length_1, leg_length_2, leg_length_3 ...) is a hexcal name: "
+        "map them (--columns, or columns: in the setup)"
+    )
