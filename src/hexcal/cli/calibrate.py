@@ -27,6 +27,8 @@ from hexcal.cli.common import (
     noise_options,
     parse_noise,
     show_defaults,
+    table_options,
+    table_reading,
     warn,
 )
 
@@ -40,9 +42,6 @@ SIGMA_LIMIT = 0.2
 #: implausible.
 MAX_CHANGE = 0.25
 
-#: ``--delimiter`` values and the characters they stand for.
-DELIMITER_WORDS = {",": ",", ";": ";", "tab": "\t"}
-
 
 def identify_noise(args: argparse.Namespace) -> Any:
     """``"auto"`` (the noise learned from the data) unless ``--noise``/``--pose-covariance``
@@ -55,12 +54,11 @@ def identify_noise(args: argparse.Namespace) -> Any:
 
 
 def read_sessions(args: argparse.Namespace, geometry: Any) -> list[Any]:
-    """The sessions of ``--data`` and ``--setup`` (pairs in order, one setup for all, or none)."""
+    """The sessions of ``--data`` and ``--setup`` (pairs in order, one setup for all, or none),
+    read with ``--columns`` (merged with a setup's ``columns``), ``--delimiter``, ``--decimal``."""
     from hexcal.io import read_sessions as read
 
-    word = getattr(args, "delimiter", None)
-    delimiter = None if word is None else DELIMITER_WORDS[word]
-    return read(args.data, args.setup or [], geometry.euler, delimiter, getattr(args, "decimal", None))
+    return read(args.data, args.setup or [], geometry.euler, **table_reading(args))
 
 
 def _setup_outputs(args: argparse.Namespace) -> list[str]:
@@ -259,7 +257,7 @@ def cmd_synthesize(args: argparse.Namespace) -> None:
     instrument = instrument_for(setup)
     if instrument.unregistered:
         raise CommandError(f"{args.setup}: simulation needs the true instrument frame, not auto")
-    poses, ids = read_poses(args.poses, nominal.euler)
+    poses, ids = read_poses(args.poses, nominal.euler, **table_reading(args))
     noise = parse_noise(args.noise, args.noise_dist)
     options = {"missing_rate": args.missing_rate} if args.missing_rate else {}
     session = simulate_session(nominal, true, instrument, poses, noise, args.seed, tuple(ids), **options)
@@ -364,8 +362,7 @@ def register(sub: Any) -> None:
         metavar="PATH",
         help="calibrated setup YAML to write (one --data), or a folder for one per session (several)",
     )
-    p.add_argument("--delimiter", choices=(",", ";", "tab"), help="export field separator (default: sniffed)")
-    p.add_argument("--decimal", choices=(".", ","), help="export decimal mark (default: detected)")
+    table_options(p, "--data", "; merged with a setup's columns, this option winning")
     p.set_defaults(
         func=cmd_identify,
         inputs=("geometry", "data", "pose_covariance", "setup"),
@@ -402,8 +399,7 @@ def register(sub: Any) -> None:
         action="append",
         help="calibrated setup YAML: --data is an instrument export",
     )
-    p.add_argument("--delimiter", choices=(",", ";", "tab"), help="export field separator (default: sniffed)")
-    p.add_argument("--decimal", choices=(".", ","), help="export decimal mark (default: detected)")
+    table_options(p, "--data", "; merged with a setup's columns, this option winning")
     p.set_defaults(
         func=cmd_validate,
         inputs=("geometry", "data", "nominal", "setup"),
@@ -423,6 +419,7 @@ def register(sub: Any) -> None:
     p.add_argument("--euler", help="Euler sequence of the angles (default: the nominal geometry's)")
     p.add_argument("--setup", metavar="FILE", help="true instrument setup YAML: write what it records")
     p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
+    table_options(p, "--poses")
     p.set_defaults(
         func=cmd_synthesize, inputs=("nominal", "true", "poses", "setup"), outputs=("out",), folders=()
     )

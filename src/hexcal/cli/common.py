@@ -92,6 +92,54 @@ def parse_noise(text: str | None, distribution: str = "uniform") -> NoiseModel:
         raise CommandError(f"--noise: {exc}") from None
 
 
+#: ``--delimiter`` values and the characters they stand for.
+DELIMITER_WORDS = {",": ",", ";": ";", "tab": "\t"}
+
+#: Help of ``--columns``.
+COLUMNS_HELP = (
+    "column map of the table read, hexcal_name=file_column,... (e.g. dl1=leg_length_1,x=position_x,"
+    "qw=orientation_w): read a file with its own column names"
+)
+
+
+def column_map(text: str) -> dict[str, str]:
+    """The ``--columns`` spec as a map (an :class:`argparse.ArgumentTypeError` naming the bad item).
+
+    >>> column_map("x=position_x")
+    {'x': 'position_x'}
+    """
+    from hexcal.io.target_files import parse_column_map  # when the option is given: no numpy for --help
+
+    try:
+        return parse_column_map(text)
+    except UsageError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def table_options(p: argparse.ArgumentParser, what: str, note: str = "", dialect: bool = True) -> None:
+    """Add ``--columns`` (and ``--delimiter``, ``--decimal`` with ``dialect``) for the table ``what``
+    (``note``: more on the column map)."""
+    p.add_argument("--columns", metavar="SPEC", type=column_map, help=f"{COLUMNS_HELP} ({what}{note})")
+    if dialect:
+        p.add_argument(
+            "--delimiter",
+            choices=tuple(DELIMITER_WORDS),
+            help=f"field separator of {what} (default: detected)",
+        )
+        p.add_argument("--decimal", choices=(".", ","), help=f"decimal mark of {what} (default: detected)")
+
+
+def table_reading(args: argparse.Namespace) -> dict[str, Any]:
+    """The reader options of ``--columns``, ``--delimiter`` and ``--decimal`` (keywords of the
+    readers of :mod:`hexcal.io`)."""
+    word = getattr(args, "delimiter", None)
+    return {
+        "delimiter": None if word is None else DELIMITER_WORDS[word],
+        "decimal": getattr(args, "decimal", None),
+        "columns": getattr(args, "columns", None),
+    }
+
+
 def noise_options(p: argparse.ArgumentParser) -> None:
     """Add ``--noise``, ``--noise-dist`` and ``--pose-covariance`` to a subcommand."""
     p.add_argument(

@@ -23,6 +23,8 @@ from hexcal.cli.common import (
     id_list,
     load_geometry,
     show_defaults,
+    table_options,
+    table_reading,
     warn,
 )
 
@@ -48,7 +50,7 @@ def cmd_compensate(args: argparse.Namespace) -> None:
     if args.corrected_poses and not args.nominal:
         raise CommandError("--corrected-poses needs --nominal (the controller's geometry)")
     geometry = load_geometry(args.geometry, args.euler)
-    table = read_table(args.poses)
+    table = read_table(args.poses, **table_reading(args))
     targets, ids = table_poses(table, geometry.euler), table.ids()
     nominal = load_geometry(args.nominal, geometry.euler) if args.nominal else None
     comp = compensate(geometry, targets, ids, nominal)
@@ -307,6 +309,7 @@ def register(sub: Any) -> None:
         help="with --gcode: pose X,Y,Z,A,B,C (mm, degrees) before the program (default: the home pose)",
     )
     p.add_argument("--quiet", action="store_true", help="with --gcode: no progress lines")
+    table_options(p, "--poses")
     p.set_defaults(
         func=cmd_compensate,
         inputs=("geometry", "poses", "nominal", "gcode"),

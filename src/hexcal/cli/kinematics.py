@@ -17,6 +17,8 @@ from hexcal.cli.common import (
     id_list,
     load_geometry,
     show_defaults,
+    table_options,
+    table_reading,
     warn,
 )
 
@@ -45,7 +47,7 @@ def cmd_ik(args: argparse.Namespace) -> None:
 
     def blocks() -> Any:
         nonlocal outside
-        for poses, ids in iter_poses(args.poses, geometry.euler):
+        for poses, ids in iter_poses(args.poses, geometry.euler, **table_reading(args)):
             lengths = inverse_kinematics(geometry, poses)
             feasible = is_feasible(geometry, poses, margin=1e-6)
             if not feasible.all():
@@ -83,7 +85,7 @@ def cmd_fk(args: argparse.Namespace) -> None:
     def blocks() -> Any:
         pending = np.empty((0, 6))
         warned = False
-        for legs in iter_legs(args.legs):
+        for legs in iter_legs(args.legs, **table_reading(args)):
             if legs.readings is not None:  # the controller's readings, through l0 and the gains
                 if legs.has_lengths and not warned:  # the lengths stay unconverted
                     warn(
@@ -147,6 +149,7 @@ def register(sub: Any) -> None:
     p.add_argument("--poses", required=True, help="pose CSV file")
     p.add_argument("--out", required=True, help="leg CSV file to write (l1..l6, dl1..dl6; - for stdout)")
     p.add_argument("--euler", help=EULER_HELP)
+    table_options(p, "--poses")
     p.set_defaults(func=cmd_ik, inputs=("geometry", "poses"), outputs=("out",), folders=())
 
     p = sub.add_parser("fk", help="forward kinematics: poses of leg lengths or readings")
@@ -154,12 +157,14 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--legs",
         required=True,
-        help="leg CSV file (l1..l6 or dl1..dl6 in mm; dl is used when both are given)",
+        help="leg CSV file (lengths l1..l6 in mm, or readings dl1..dl6 in the unit of the geometry's "
+        "gains: mm, or revolutions with gains in mm per revolution; dl is used when both are given)",
     )
     p.add_argument("--out", required=True, help="pose CSV file to write; - for standard output")
     p.add_argument("--guess", help="pose CSV file of starting poses (default: the home pose)")
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--tol", type=float, default=1e-9, help="leg length tolerance, mm")
+    table_options(p, "--legs", "; --guess is read with hexcal's names")
     p.set_defaults(func=cmd_fk, inputs=("geometry", "legs", "guess"), outputs=("out",), folders=())
     for name in ("preset", "ik", "fk"):
         show_defaults(sub.choices[name])

@@ -34,6 +34,8 @@ from hexcal.cli.common import (
     load_geometry,
     parse_noise,
     show_defaults,
+    table_options,
+    table_reading,
     warn,
 )
 
@@ -171,7 +173,7 @@ def cmd_observability(args: argparse.Namespace) -> None:
     method = choice(args.method, ("ml", "length", "paper"), "--method")
     mask = fit_mask(args.fit)
     noise = _noise(args)
-    poses, ids = read_poses(args.poses, geometry.euler)
+    poses, ids = read_poses(args.poses, geometry.euler, **table_reading(args))
     if args.test_poses:
         test, _ = read_poses(args.test_poses, geometry.euler)
     elif geometry.workspace is not None:
@@ -334,6 +336,7 @@ def register(sub: Any) -> None:
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: plan for targets or a tool")
     p.add_argument("--fix", nargs="+", metavar="NAME", help="parameters or groups to hold, e.g. frame")
+    table_options(p, "--poses", "; --test-poses is read with hexcal's names")
     p.set_defaults(
         func=cmd_observability,
         inputs=("geometry", "poses", "test_poses", "setup"),

@@ -34,7 +34,7 @@ from hexcal.errors import InputError
 #: Setup quantities that ``fixed`` may name.
 FIXABLE = ("instrument_frame", "targets", "tool")
 #: Keys a setup mapping may have.
-SETUP_KEYS = ("units", "euler", "instrument_frame", "targets", "tool", "fixed", "calibration")
+SETUP_KEYS = ("units", "euler", "instrument_frame", "targets", "tool", "fixed", "columns", "calibration")
 #: Solver scale of a setup angle (rad).
 ANGLE_SCALE = 1e-3
 TARGET_NAME = re.compile(r"^t[1-9][0-9]*$")
@@ -72,6 +72,19 @@ def _number(value: Any, where: str) -> float:
     return float(value)
 
 
+def _columns(value: Any) -> dict[str, str]:
+    """A setup's ``columns`` mapping (hexcal name -> file column), its form checked here (the
+    names against hexcal's columns when read from a file, :func:`hexcal.io.load_setup`)."""
+    if not isinstance(value, dict) or not value:
+        raise InputError(
+            "columns must be a mapping of hexcal names to file columns, e.g. {dl1: leg_length_1}"
+        )
+    for ours, theirs in value.items():
+        if not isinstance(ours, str) or not isinstance(theirs, str) or not theirs.strip():
+            raise InputError(f"columns.{ours}: must name a file column (text), got {theirs!r}")
+    return {ours: theirs.strip() for ours, theirs in value.items()}
+
+
 def _pose_mapping(pose: NDArray[np.float64]) -> dict[str, float]:
     keys = ("x", "y", "z", "a_deg", "b_deg", "c_deg")
     values = list(pose[:3]) + list(np.rad2deg(pose[3:]))
@@ -96,6 +109,9 @@ class Setup:
         Euler sequence of the setup's angles (default: the geometry's).
     calibration : mapping, optional
         Standard errors of a calibrated setup.
+    columns : mapping of str to str, optional
+        How the instrument's data files name their columns: hexcal's name -> the file's
+        (``{"dl1": "leg_length_1", "qw": "orientation_w"}``); kept by a calibrated setup.
     """
 
     frame: NDArray[np.float64] | None = None
@@ -104,6 +120,7 @@ class Setup:
     fixed: tuple[str, ...] = ()
     euler: str | None = None
     calibration: dict[str, Any] | None = None
+    columns: dict[str, str] | None = None
 
     def __post_init__(self) -> None:
         if self.targets and self.tool is not None:
@@ -135,6 +152,8 @@ class Setup:
         if ("targets" in fixed and not self.targets) or ("tool" in fixed and self.tool is None):
             raise InputError(f"fixed: the setup has no {'targets' if 'targets' in fixed else 'tool'}")
         object.__setattr__(self, "fixed", fixed)
+        if self.columns is not None:
+            object.__setattr__(self, "columns", _columns(self.columns))
         if self.euler is not None:
             try:
                 check_euler(self.euler)
@@ -266,7 +285,8 @@ class Setup:
         calibration = data.get("calibration")
         if calibration is not None and not isinstance(calibration, dict):
             raise InputError("calibration must be a mapping")
-        return cls(frame, dict(targets or {}), tool, tuple(fixed), euler, calibration)
+        columns = _columns(data["columns"]) if "columns" in data else None
+        return cls(frame, dict(targets or {}), tool, tuple(fixed), euler, calibration, columns)
 
     def to_dict(self) -> dict[str, Any]:
         """The YAML mapping (docs/formats.md "Setup file"): angles in degrees, ``auto`` for an
@@ -281,6 +301,8 @@ class Setup:
             out["tool"] = _pose_mapping(self.tool)
         if self.fixed:
             out["fixed"] = list(self.fixed)
+        if self.columns:
+            out["columns"] = dict(self.columns)
         if self.calibration is not None:
             out["calibration"] = self.calibration
         return out

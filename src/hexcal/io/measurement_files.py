@@ -42,7 +42,7 @@ def _orientation_group(table: Table) -> str:
     if not present:
         raise InputError(
             f"{table.path}: missing orientation columns: give a, b, c (rad), "
-            "a_deg, b_deg, c_deg, or qx, qy, qz, qw"
+            f"a_deg, b_deg, c_deg, or qx, qy, qz, qw{table.unmapped_hint()}"
         )
     if len(present) > 1:
         names = " and ".join(", ".join(ORIENTATION_GROUPS[g]) for g in present)
@@ -167,7 +167,7 @@ def _legs(table: Table, ids: Callable[[], tuple[str, ...]]) -> LegData:
     has_l = any(table.has(c) for c in LEG_LENGTH_COLUMNS)
     has_dl = any(table.has(c) for c in LEG_READING_COLUMNS)
     if not (has_l or has_dl):
-        raise InputError(f"{table.path}: missing leg columns: give l1..l6 or dl1..dl6")
+        raise InputError(f"{table.path}: missing leg columns: give l1..l6 or dl1..dl6{table.unmapped_hint()}")
     if has_l:
         table.numbers([c for c in LEG_LENGTH_COLUMNS if not table.has(c)][:1])  # a missing one: named now
     readings = table.numbers(LEG_READING_COLUMNS) if has_dl else None

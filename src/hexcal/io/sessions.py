@@ -7,45 +7,84 @@ name the reader and writer of its data files here (:data:`READERS`, :data:`WRITE
 instrument's files are one reader and one writer added to these (by a line here, or
 ``READERS[name] = reader`` from its own module); its instrument is then given as such, since
 a setup file describes targets or a tool only.
+
+Column maps: a setup's ``columns`` says how the files of its instrument name their columns;
+a map given to :func:`read_session` (the command line's ``--columns``) is merged with it, the
+given map winning name by name (:func:`merge_columns`, which warns once of what it replaced).
 """
 
 from __future__ import annotations
 
+import inspect
 import os
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from hexcal.errors import InputError
+from hexcal.errors import InputError, InputWarning, UsageError
 from hexcal.instruments.base import MeasurementModel, Session
 from hexcal.instruments.registry import instrument_for
 from hexcal.instruments.setup import Setup
 from hexcal.io.measurement_files import read_measurements, write_measurements
 from hexcal.io.setup_file import load_setup
+from hexcal.io.tables import check_column_map
 from hexcal.io.target_files import read_target_measurements, read_tool_measurements, write_target_measurements
 
-#: Options a reader takes: the instrument, the Euler sequence, the delimiter and decimal mark.
-Reader = Callable[[str | os.PathLike[str], MeasurementModel, str, str | None, str | None], Any]
+#: Options a reader takes: the instrument, the Euler sequence, the delimiter and decimal mark,
+#: and, as the keyword ``columns``, a column map (passed only when there is one: a reader
+#: without that keyword reads files with hexcal's own column names only).
+Reader = Callable[..., Any]
 Writer = Callable[..., None]
+Columns = Mapping[str, str] | None
 
 
-def _full_pose(path: Any, instrument: Any, euler: str, delimiter: Any, decimal: Any) -> Any:
-    if delimiter is not None or decimal is not None:
-        # a measurement file of the full pose has the export reader's detection too
-        return read_tool_measurements(path, euler, delimiter, decimal)
-    return read_measurements(path, euler)
+def _full_pose(
+    path: Any, instrument: Any, euler: str, delimiter: Any, decimal: Any, columns: Columns = None
+) -> Any:
+    return read_measurements(path, euler, delimiter=delimiter, decimal=decimal, columns=columns)
+
+
+def _tool(
+    path: Any, instrument: Any, euler: str, delimiter: Any, decimal: Any, columns: Columns = None
+) -> Any:
+    return read_tool_measurements(path, euler, delimiter, decimal, columns)
+
+
+def _targets(
+    path: Any, instrument: Any, euler: str, delimiter: Any, decimal: Any, columns: Columns = None
+) -> Any:
+    return read_target_measurements(path, instrument.setup, delimiter, decimal, columns)
 
 
 #: The data reader of each instrument, by its registry name.
-READERS: dict[str, Reader] = {
-    "pose": _full_pose,
-    "tool": lambda path, inst, euler, delimiter, decimal: read_tool_measurements(
-        path, euler, delimiter, decimal
-    ),
-    "targets": lambda path, inst, euler, delimiter, decimal: read_target_measurements(
-        path, inst.setup, delimiter, decimal
-    ),
-}
+READERS: dict[str, Reader] = {"pose": _full_pose, "tool": _tool, "targets": _targets}
+
+
+def merge_columns(setup: Columns, given: Columns, where: str = "--columns") -> dict[str, str] | None:
+    """A setup's column map with ``given`` merged in (``given`` wins for a name in both).
+
+    A replaced entry draws one :class:`~hexcal.errors.InputWarning` line naming them; the merged
+    map is checked again (two names for one file column are refused, naming ``where``).
+
+    >>> merge_columns({"x": "X", "y": "Y"}, {"z": "Z"})
+    {'x': 'X', 'y': 'Y', 'z': 'Z'}
+    """
+    if not setup or not given:
+        return dict(given or setup) if (given or setup) else None
+    merged = {**setup, **given}
+    replaced = [f"{k}={setup[k]} by {k}={given[k]}" for k in given if k in setup and setup[k] != given[k]]
+    if replaced:
+        warnings.warn(
+            f"{where} replaces the setup's columns: {', '.join(replaced)}", InputWarning, stacklevel=3
+        )
+    try:
+        check_column_map(merged)
+    except UsageError as exc:
+        raise InputError(
+            f"{where} with the setup's columns: {str(exc).removeprefix('column map: ')}"
+        ) from None
+    return merged
 
 
 def _write_poses(
@@ -85,16 +124,25 @@ def read_session(
     delimiter: str | None = None,
     decimal: str | None = None,
     label: str | None = None,
+    columns: Columns = None,
 ) -> Session:
     """The session of a data file and its setup (a :class:`Setup`, a setup file or the
     instrument; None for the full pose in the base frame), angles in the Euler sequence
-    ``euler``."""
+    ``euler``; ``columns`` (hexcal's name -> the file's) merged with the setup's own
+    (:func:`merge_columns`)."""
     instrument = load_instrument(setup, euler)
     try:
         reader = READERS[instrument.name]
     except KeyError:
         raise InputError(f"no reader of {instrument.name} data files") from None
-    values = reader(data, instrument, euler, delimiter, decimal)
+    own = getattr(getattr(instrument, "setup", None), "columns", None)
+    merged = merge_columns(own, columns)
+    if merged is None:
+        values = reader(data, instrument, euler, delimiter, decimal)
+    elif "columns" in inspect.signature(reader).parameters:
+        values = reader(data, instrument, euler, delimiter, decimal, columns=merged)
+    else:
+        raise InputError(f"{data}: the reader of {instrument.name} data files takes no column map")
     return Session(values, instrument, label or Path(data).name)
 
 
@@ -104,9 +152,11 @@ def read_sessions(
     euler: str,
     delimiter: str | None = None,
     decimal: str | None = None,
+    columns: Columns = None,
 ) -> list[Session]:
     """Sessions of data files paired in order with setups: one setup for all files, one per
-    file, or none (the full pose); labels are the file names, made unique."""
+    file, or none (the full pose); labels are the file names, made unique; ``columns`` for
+    every file (merged with each setup's own, :func:`merge_columns`)."""
     data = list(data)
     setups = list(setups)
     if not setups:
@@ -128,7 +178,7 @@ def read_sessions(
         label = Path(path).name
         if any(s.label == label for s in sessions):
             label = f"{label} ({k + 1})"
-        sessions.append(read_session(path, setup, euler, delimiter, decimal, label))
+        sessions.append(read_session(path, setup, euler, delimiter, decimal, label, columns))
     return sessions
 
 

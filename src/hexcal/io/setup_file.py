@@ -7,10 +7,11 @@ from pathlib import Path
 
 import yaml
 
-from hexcal.errors import InputError
+from hexcal.errors import InputError, UsageError
 from hexcal.instruments.setup import Setup
 from hexcal.io.files import atomic_write, plain
 from hexcal.io.inputs import load_yaml
+from hexcal.io.tables import check_column_map
 
 
 def load_setup(path: str | os.PathLike[str]) -> Setup:
@@ -18,7 +19,8 @@ def load_setup(path: str | os.PathLike[str]) -> Setup:
 
     Read like a geometry file, with :func:`hexcal.io.inputs.load_yaml`: regular files only,
     safe tags, a size limit, limits on nesting and on aliases (an alias bomb fails at once),
-    and no key given twice in a mapping.
+    and no key given twice in a mapping. A ``columns`` mapping (how the instrument's data files
+    name their columns) must use hexcal's column names, each file column once.
     """
     path = Path(path)
     if not os.path.lexists(path):
@@ -27,9 +29,12 @@ def load_setup(path: str | os.PathLike[str]) -> Setup:
         raise InputError(f"{path}: is a folder, not a setup file")
     data = load_yaml(path, "YAML")
     try:
-        return Setup.from_dict(data)
-    except InputError as exc:
-        raise InputError(f"{path}: {exc}") from None
+        setup = Setup.from_dict(data)
+        check_column_map(setup.columns)
+    except (InputError, UsageError) as exc:
+        text = str(exc).replace("column map: ", "columns: ", 1)
+        raise InputError(f"{path}: {text}") from None
+    return setup
 
 
 def save_setup(setup: Setup, path: str | os.PathLike[str]) -> None:

@@ -238,6 +238,14 @@ class Table:
             block.checked = True
         return fields
 
+    def unmapped_hint(self) -> str:
+        """``""``, or when none of the columns has one of hexcal's names, a hint to map them."""
+        if any(c in COLUMN_NAMES or TARGET_COLUMN.match(c) for c in self.columns):
+            return ""
+        shown = ", ".join(self.label(c) for c in self.columns[:3]) + (" ..." if len(self.columns) > 3 else "")
+        where = "--columns, or columns: in the setup"
+        return f"; none of the file's columns ({shown}) is a hexcal name: map them ({where})"
+
     def numbers(self, names: Sequence[str], empty: bool = False) -> NDArray[np.float64]:
         """Numeric values of the named columns, shape ``(rows, len(names))``.
 
@@ -248,7 +256,7 @@ class Table:
         for name in names:
             if name not in self.columns:
                 label = self.label(name)
-                extra = f" (the column map's {name})" if label != name else ""
+                extra = f" (the column map's {name})" if label != name else self.unmapped_hint()
                 raise InputError(f"{self.path}: missing column '{label}'{extra}")
         todo = [n for n in dict.fromkeys(names) if n not in self._numbers]
         if todo:
