@@ -102,6 +102,13 @@ def test_cli_validate_json_nominal_and_folds(campaign, tmp_path, capsys):
     # the nominal machine, re-registered too, misses by far more than the calibrated one
     assert body["nominal"]["position_rms_mm"] > 5 * body["position_rms_mm"]
     assert body["nominal"]["registration"]["folds"] == 5
+    # the per-pose table: the tool's own errors beside the platform's, every column named once
+    assert _run(*common, "--setup", free, "--out", tmp_path / "per.csv") == 0
+    header = next(
+        line for line in (tmp_path / "per.csv").read_text().splitlines() if not line.startswith("#")
+    )
+    names = header.split(",")
+    assert len(set(names)) == len(names) and "instrument_position_error" in names, names
     # another split of the folds: the same figures to a few percent
     assert _run(*common, "--setup", free, "--folds", 4, "--seed", 3, "--json", tmp_path / "w.json") == 0
     other = json.loads((tmp_path / "w.json").read_text())

@@ -49,8 +49,8 @@ def validation_table(calibrated: Any, nominal: Any | None, ids: Sequence[str]) -
         table += [leg, res.position_error, res.orientation_error]
         for name, values in res.instrument_errors.items():
             values = np.asarray(values, dtype=float).reshape(len(ids), -1)
-            if values.shape[1] == 1:
-                columns.append(f"{prefix}{name}_error")
+            if values.shape[1] == 1:  # the instrument's own (a tool's position beside the platform's)
+                columns.append(f"{prefix}instrument_{name}_error")
                 table.append(values[:, 0])
             else:
                 labels = res.value_labels if len(res.value_labels) == values.shape[1] else None
