@@ -188,7 +188,8 @@ def _noise_reasons(noise_estimate: Any, noise_check: Any) -> list[Reason]:
     if noise_estimate is not None:
         est = noise_estimate
         parts = [
-            f"{g} σ {s:.3g} ± {e:.2g}" for g, s, e in zip(est.groups, est.sigmas, est.stderr, strict=True)
+            f"{g} σ {s:.3g} ± {e:.2g}" if np.isfinite(e) else f"{g} σ {s:.3g} (not estimated)"
+            for g, s, e in zip(est.groups, est.sigmas, est.stderr, strict=True)
         ]
         out.append(Reason("noise-estimated", "info", "noise from the data: " + ", ".join(parts)))
         if not noise_estimate.converged:
