@@ -43,7 +43,7 @@ ROWS = [
     ["p1", "0.5", "-1.25", "2", "0", "0", "0.125", "12.5", "-80.25", "800", "1.5", "0", "-2.75"],
     ["p2", "1", "1", "1", "1", "1", "1", "2.75", "-7.5", "810.125", "0", "0.5", "0"],
 ]
-JUGGLEBOT = Path(__file__).resolve().parents[2] / "shared" / "data" / "jugglebot" / "session1_108_poses.csv"
+JUGGLEBOT = Path(__file__).resolve().parent / "data" / "jugglebot" / "session1_108_poses.csv"
 JUGGLEBOT_MAP = (
     ",".join(f"dl{i}=leg_length_{i}" for i in range(1, 7))
     + ",x=position_x,y=position_y,z=position_z"
@@ -361,7 +361,6 @@ def test_a_column_map_for_target_exports(tmp_path):
     assert data.ids == ("A",)
 
 
-@pytest.mark.skipif(not JUGGLEBOT.exists(), reason="the shared Jugglebot data are not beside the project")
 def test_the_real_motion_capture_session_is_read_with_its_own_columns():
     before = JUGGLEBOT.read_bytes()
     data = read_measurements(JUGGLEBOT, "XYZ", columns=parse_column_map(JUGGLEBOT_MAP))
