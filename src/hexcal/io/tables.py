@@ -41,6 +41,9 @@ BLOCK_ROWS = 16_384
 MAX_FIELD_CHARS = 131_072
 DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
 #: The text of a number, with either decimal mark.
+#: First characters that make a spreadsheet read a cell as a formula (an id starting with one
+#: is refused unless it is a plain number such as ``-1``; tab and CR cannot start a stripped id).
+FORMULA_MARKS = "=+-@"
 NUMBER_TEXT = re.compile(r"^[+-]?(\d+([.,]\d*)?|[.,]\d+)([eE][+-]?\d+)?$")
 
 ORIENTATION_GROUPS = {
@@ -372,7 +375,9 @@ class Table:
             return tuple(str(first + k) for k in range(len(self)))
         ids = self.cells("id")
         repeated = len(set(ids)) != len(ids) or (seen is not None and not seen.keys().isdisjoint(ids))
-        if repeated or "" in ids or "\n#" in "\n" + "\n".join(ids):
+        joined = "\n" + "\n".join(ids)
+        formula = any(f"\n{mark}" in joined for mark in FORMULA_MARKS)
+        if repeated or "" in ids or "\n#" in joined or formula or not "".join(ids).isprintable():
             self._id_error(ids, dict(seen or {}))
         if seen is not None:
             seen.update(zip(ids, self.lines, strict=True))
@@ -389,6 +394,16 @@ class Table:
                 raise InputError(
                     f"{self.path}: line {line}, {where}: id {_shown(value)} starts with '#', "
                     "which marks comments; rename it"
+                )
+            if not value.isprintable():
+                raise InputError(
+                    f"{self.path}: line {line}, {where}: id {_shown(value)} holds a control or "
+                    "line-separator character; ids are written into other files: rename it"
+                )
+            if value[0] in FORMULA_MARKS and not NUMBER_TEXT.match(value):
+                raise InputError(
+                    f"{self.path}: line {line}, {where}: id {_shown(value)} starts with "
+                    f"{value[0]!r}, which a spreadsheet opening hexcal's tables runs as a formula; rename it"
                 )
             if value in seen:
                 raise InputError(

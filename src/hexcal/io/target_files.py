@@ -20,6 +20,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from hexcal.core.text import printable
 from hexcal.errors import InputError, UsageError
 from hexcal.instruments.pose import Measurements
 from hexcal.instruments.setup import Setup
@@ -127,8 +128,8 @@ def write_target_measurements(
     """Write a target measurement file (standard CSV; lost targets as empty cells), atomically."""
     cols = ["id", *LEG_READING_COLUMNS] + [f"{t}.{ax}" for t in data.names for ax in "xyz"]
     with atomic_write(path) as fh:
-        for line in (comment or "").splitlines():
-            fh.write(f"# {line}\n")
+        for line in comment.rstrip("\n").split("\n") if comment else ():
+            fh.write(f"# {printable(line)}\n")
         writer = csv.writer(fh, lineterminator="\n")
         writer.writerow(cols)
         flat = data.targets.reshape(len(data), -1)

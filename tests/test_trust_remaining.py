@@ -1,0 +1,161 @@
+"""Issue 22, the items the first pass left open, each through the command line.
+
+Formula injection and control characters: an id starting with ``=``, ``+``, ``-`` or ``@``
+(unless it is a plain number such as ``-1``) or holding a control, format or line-separator
+character is refused by the one table reader, so that no output hexcal writes (CSV, HAL,
+INI, G-code, HTML) can carry it; text that reaches a file only as a comment or a title (a
+geometry's name, a file name) is written with such characters escaped. Line breaks are CR,
+LF and CRLF only: a U+2028 or U+0085 inside a field stays in that field.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+
+from hexcal.cli import main
+from hexcal.core.presets import preset
+from hexcal.io import save_geometry
+
+
+def run(capsys, *argv) -> tuple[int, str, str]:
+    status = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def one_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("hexcal: error: ") and "Traceback" not in err, err
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory) -> Path:
+    """A geometry, 20 poses and their measurements, made by hexcal itself."""
+    d = tmp_path_factory.mktemp("remaining")
+    assert main(["preset", "paper-hmt", "--out", str(d / "g.yaml")]) == 0
+    assert main(["candidates", "--geometry", str(d / "g.yaml"), "--candidates", "random:20",
+                 "--out", str(d / "p.csv")]) == 0  # fmt: skip
+    argv = ["synthesize", "--nominal", d / "g.yaml", "--true", "paper-hmt-true", "--poses", d / "p.csv"]
+    assert main([str(a) for a in [*argv, "--out", d / "m.csv"]]) == 0
+    return d
+
+
+def _with_id(src: Path, dst: Path, row: int, value: str) -> Path:
+    """``src`` with the id of data row ``row`` replaced by ``value`` (written by the csv module)."""
+    rows = [r for r in csv.reader(src.read_text(encoding="utf-8").splitlines()) if not r[0].startswith("#")]
+    rows[row][0] = value
+    with open(dst, "w", newline="", encoding="utf-8") as fh:
+        csv.writer(fh, lineterminator="\n").writerows(rows)
+    return dst
+
+
+# -- formula injection and control characters in ids ---------------------------------------
+FORMULAS = ['=HYPERLINK("http://x")', "=cmd|' /C calc'!A0", "+1+cmd", "-2+3", "@SUM(A1)"]
+CONTROLS = ["a\tb", "a\u2028b", "a\u0085b", "a\u2029b", "a\x00b", "a\x1bb", "a\u202eb"]
+
+
+@pytest.mark.parametrize("value", FORMULAS)
+@pytest.mark.parametrize("kind", ["poses", "measurements"])
+def test_an_id_a_spreadsheet_runs_as_a_formula_is_refused(capsys, files, tmp_path, kind, value):
+    if kind == "poses":
+        path = _with_id(files / "p.csv", tmp_path / "x.csv", 3, value)
+        argv = ["ik", "--geometry", files / "g.yaml", "--poses", path, "--out", tmp_path / "l.csv"]
+    else:
+        path = _with_id(files / "m.csv", tmp_path / "x.csv", 3, value)
+        argv = ["validate", "--geometry", files / "g.yaml", "--data", path, "--out", tmp_path / "v.csv"]
+    status, _, err = run(capsys, *argv)
+    line = one_line(err)
+    assert status == 1 and "line 4, column 'id'" in line and "formula" in line, line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.csv"]
+
+
+@pytest.mark.parametrize("value", CONTROLS, ids=[repr(c) for c in CONTROLS])
+def test_an_id_with_a_control_or_line_separator_is_refused_on_its_line(capsys, files, tmp_path, value):
+    """U+2028 and U+0085 are not line breaks of a CSV file: the row keeps its fields, and the
+    id is refused on its own line (not "1 fields, but the header has 7" on a split row)."""
+    path = _with_id(files / "p.csv", tmp_path / "x.csv", 5, value)
+    status, _, err = run(
+        capsys, "ik", "--geometry", files / "g.yaml", "--poses", path, "--out", tmp_path / "l.csv"
+    )
+    line = one_line(err)
+    assert status == 1 and "line 6, column 'id'" in line and "control or line-separator" in line, line
+    assert not (tmp_path / "l.csv").exists()
+
+
+@pytest.mark.parametrize("value", ["-1", "+2", "-3.5", "r-1", "a=b", "x@y"])
+def test_numbers_and_inner_marks_are_still_ids(capsys, files, tmp_path, value):
+    path = _with_id(files / "p.csv", tmp_path / "x.csv", 2, value)
+    status, _, err = run(
+        capsys, "ik", "--geometry", files / "g.yaml", "--poses", path, "--out", tmp_path / "l.csv"
+    )
+    assert status == 0, err
+    rows = list(csv.reader((tmp_path / "l.csv").read_text(encoding="utf-8").splitlines()))
+    assert rows[2][0] == value
+
+
+def test_an_id_with_surrounding_blanks_is_the_id_without_them(capsys, files, tmp_path):
+    """Blanks around a cell are not part of it (as for the numbers): ``' r01 '`` is ``r01``,
+    and ``' r02 '`` repeats the id ``r02`` of the next row."""
+    path = _with_id(files / "p.csv", tmp_path / "x.csv", 2, " r01 ")
+    status, _, err = run(
+        capsys, "ik", "--geometry", files / "g.yaml", "--poses", path, "--out", tmp_path / "l.csv"
+    )
+    assert status == 0, err
+    assert (tmp_path / "l.csv").read_text(encoding="utf-8").splitlines()[2].startswith("r01,")
+    path = _with_id(files / "p.csv", tmp_path / "y.csv", 2, " r02 ")
+    status, _, err = run(
+        capsys, "ik", "--geometry", files / "g.yaml", "--poses", path, "--out", tmp_path / "k.csv"
+    )
+    assert status == 1 and "id 'r02' repeats line 3" in one_line(err)
+
+
+def test_a_line_separator_in_a_number_field_names_the_field(capsys, files, tmp_path):
+    text = (files / "p.csv").read_text(encoding="utf-8").splitlines()
+    cells = text[3].split(",")
+    cells[2] = cells[2][:3] + "\u2028" + cells[2][3:]
+    (tmp_path / "x.csv").write_text(
+        "\n".join([*text[:3], ",".join(cells), *text[4:]]) + "\n", encoding="utf-8"
+    )
+    status, _, err = run(
+        capsys,
+        "ik",
+        "--geometry",
+        files / "g.yaml",
+        "--poses",
+        tmp_path / "x.csv",
+        "--out",
+        tmp_path / "l.csv",
+    )
+    line = one_line(err)
+    assert status == 1 and "line 4" in line and "'y'" in line and "fields" not in line, line
+
+
+NAMES = ["rig\nloadusr -w touch /tmp/x", "rig\u2028=cmd", "rig\r\n# x", "rig\x1b[2Jcls"]
+
+
+@pytest.mark.parametrize("name", NAMES, ids=range(len(NAMES)))
+def test_a_hostile_name_is_one_escaped_comment_line_of_every_csv(capsys, files, tmp_path, name):
+    """The geometry's name reaches a CSV only inside the ``#`` comment: one line, escaped."""
+    save_geometry(preset("paper-hmt").replace(name=name), tmp_path / "g.yaml")
+    argv = [
+        "synthesize",
+        "--nominal",
+        tmp_path / "g.yaml",
+        "--true",
+        "paper-hmt-true",
+        "--poses",
+        files / "p.csv",
+    ]
+    status, _, err = run(capsys, *argv, "--out", tmp_path / "m.csv")
+    assert status == 0, err
+    raw = (tmp_path / "m.csv").read_bytes().decode("utf-8")
+    lines = raw.split("\n")
+    assert lines[0].startswith("# ") and lines[1].startswith("id,"), lines[:3]
+    assert lines[0].isprintable() and "\r" not in raw
+    status, _, err = run(capsys, "validate", "--geometry", files / "g.yaml", "--data", tmp_path / "m.csv",
+                         "--html", tmp_path / "v.html", "--out", tmp_path / "v.csv")  # fmt: skip
+    assert status == 0, err
