@@ -159,3 +159,43 @@ def test_a_hostile_name_is_one_escaped_comment_line_of_every_csv(capsys, files, 
     status, _, err = run(capsys, "validate", "--geometry", files / "g.yaml", "--data", tmp_path / "m.csv",
                          "--html", tmp_path / "v.html", "--out", tmp_path / "v.csv")  # fmt: skip
     assert status == 0, err
+
+
+# -- identify without a workspace box --------------------------------------------------------
+@pytest.mark.parametrize("instrument", ["pose", "targets"])
+def test_identify_without_a_workspace_box_predicts_over_the_poses_range(capsys, files, tmp_path, instrument):
+    """The ``workspace:`` box is optional in a geometry file: identify then predicts its
+    accuracy over the calibration poses' range, says so, and writes no box of its own."""
+    save_geometry(preset("paper-hmt").replace(workspace=None), tmp_path / "g.yaml")
+    data, extra = files / "m.csv", []
+    if instrument == "targets":
+        (tmp_path / "s.yaml").write_text(
+            "units: mm\ninstrument_frame: {x: 1000, y: 200, z: -300, a_deg: 10, b_deg: 5, c_deg: 30}\n"
+            "targets:\n  t1: [0, 0, 60]\n  t2: [150, 20, 55]\n  t3: [-40, 160, 70]\n",
+            encoding="utf-8",
+        )
+        argv = [
+            "synthesize",
+            "--nominal",
+            "paper-hmt",
+            "--true",
+            "paper-hmt-true",
+            "--poses",
+            files / "p.csv",
+        ]
+        assert run(capsys, *argv, "--setup", tmp_path / "s.yaml", "--out", tmp_path / "t.csv")[0] == 0
+        data, extra = tmp_path / "t.csv", ["--setup", tmp_path / "s.yaml"]
+    argv = [
+        "identify",
+        "--geometry",
+        tmp_path / "g.yaml",
+        "--data",
+        data,
+        *extra,
+        "--out",
+        tmp_path / "r.yaml",
+    ]
+    status, out, err = run(capsys, *argv, "--force")
+    assert status == 0, err
+    assert "over the calibration poses' range (the geometry has no workspace box)" in out
+    assert "workspace" not in (tmp_path / "r.yaml").read_text(encoding="utf-8")

@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.calibration.accuracy import (
+    accuracy_geometry,
     expected_validation,
     machine_mask,
     predicted_instrument_accuracy,
@@ -339,12 +340,14 @@ def assess(
         cov = result.covariance[np.ix_(rows, rows)]
         rigid = None if result.gauge_directions is None else result.gauge_directions[rows]
         mask = machine_mask(result.geometry, names=names)
-        acc = predicted_pose_accuracy(result.geometry, cov, mask, rigid=rigid)
+        poses = None if problem is None or result.poses is not None else problem.measured_poses()
+        geometry, where = accuracy_geometry(result.geometry, result.poses if poses is None else poses)
+        acc = predicted_pose_accuracy(geometry, cov, mask, rigid=rigid) | {"over": where}
         reasons.append(
             Reason(
                 "predicted-accuracy",
                 "info",
-                f"predicted pose error after calibration over the workspace{_rigid_note(rigid)}: "
+                f"predicted pose error after calibration over {where}{_rigid_note(rigid)}: "
                 f"position RMS "
                 f"{acc['position_rms_mm']:.3g} mm (worst {acc['position_max_mm']:.3g}), orientation RMS "
                 f"{acc['orientation_rms_rad']:.3g} rad (worst {acc['orientation_max_rad']:.3g})",
@@ -355,7 +358,7 @@ def assess(
             acc["validation"] = _expected_validation(result, problem, noise, cov, mask, rigid)
             reasons.append(_validation_reason(acc["validation"]))
         if problem is not None:
-            acc["instrument"] = _instrument_accuracy(result, problem, mask)
+            acc["instrument"] = _instrument_accuracy(result, problem, mask, geometry)
             reasons += [_instrument_reason(entry) for entry in acc["instrument"] if entry["own_frame"]]
     verdict = Verdict(tuple(reasons), acc)
     if diagnose is not None:
@@ -394,7 +397,7 @@ def _validation_reason(expected: dict[str, Any]) -> Reason:
     )
 
 
-def _instrument_accuracy(result: Any, problem: Any, mask: NDArray) -> list[dict[str, Any]]:
+def _instrument_accuracy(result: Any, problem: Any, mask: NDArray, geometry: Any) -> list[dict[str, Any]]:
     """The predicted accuracy of what each session's instrument reads, in its own terms
     (:func:`hexcal.calibration.accuracy.predicted_instrument_accuracy`), per session."""
     if len(result.names) != problem.n_free:
@@ -407,7 +410,7 @@ def _instrument_accuracy(result: Any, problem: Any, mask: NDArray) -> list[dict[
         own = problem.free_in(part.block)
         rows = machine | own
         acc = predicted_instrument_accuracy(
-            result.geometry,
+            geometry,
             part.instrument,
             full[part.block],
             result.covariance[np.ix_(rows, rows)],
