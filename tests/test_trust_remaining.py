@@ -199,3 +199,33 @@ def test_identify_without_a_workspace_box_predicts_over_the_poses_range(capsys, 
     assert status == 0, err
     assert "over the calibration poses' range (the geometry has no workspace box)" in out
     assert "workspace" not in (tmp_path / "r.yaml").read_text(encoding="utf-8")
+
+
+# -- simulate and paper declare their folder files like every command ------------------------
+@pytest.mark.parametrize(
+    ("argv", "inside"),
+    [
+        (["simulate", "--trials", "2", "--poses", "15"], "study.csv"),
+        (["paper", "--trials", "2"], "fig11_validation_errors.png"),
+    ],
+)
+@pytest.mark.parametrize("clash", ["fifo", "html"])
+def test_simulate_and_paper_check_their_folder_files_before_any_work(capsys, tmp_path, argv, inside, clash):
+    """The files written into ``--out DIR`` are declared outputs (``folder_files``): a FIFO
+    there, or ``--html`` naming one of them, is refused at once, by the one output set."""
+    import os
+
+    from hexcal.cli import safety
+
+    assert not hasattr(safety, "FOLDER_FILES")  # no list of exceptions beside the commands
+    (tmp_path / "out").mkdir()
+    extra = []
+    if clash == "fifo":
+        os.mkfifo(tmp_path / "out" / inside)
+    else:
+        extra = ["--html", tmp_path / "out" / inside]
+    status, out, err = run(capsys, *argv, "--out", tmp_path / "out", *extra)
+    line = one_line(err)
+    assert status == 1 and inside in line and ("FIFO" in line or "another output" in line), line
+    assert "Simulating" not in err + out
+    assert [p.name for p in (tmp_path / "out").iterdir()] == ([inside] if clash == "fifo" else [])
