@@ -229,3 +229,57 @@ def test_simulate_and_paper_check_their_folder_files_before_any_work(capsys, tmp
     assert status == 1 and inside in line and ("FIFO" in line or "another output" in line), line
     assert "Simulating" not in err + out
     assert [p.name for p in (tmp_path / "out").iterdir()] == ([inside] if clash == "fifo" else [])
+
+
+# -- options that do nothing: each acts or is refused in one line naming it -------------------
+SETUP_YAML = (
+    "units: mm\ninstrument_frame: {x: 1000, y: 200, z: -300, a_deg: 10, b_deg: 5, c_deg: 30}\n"
+    "targets:\n  t1: [0, 0, 60]\n  t2: [150, 20, 55]\n  t3: [-40, 160, 70]\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["identify", "--geometry", "{g}", "--data", "{m}", "--out", "{o}/r.yaml", "--setup-out", "{o}/s.yaml"],
+         "--setup-out"),
+        (["identify", "--geometry", "{g}", "--data", "{m}", "--out", "{o}/r.yaml", "--delimiter", ";"],
+         "--delimiter"),
+        (["synthesize", "--nominal", "{g}", "--true", "paper-hmt-true", "--poses", "{p}", "--setup", "{s}",
+          "--orientation", "quat", "--out", "{o}/t.csv"], "--orientation quat"),
+        (["simulate", "--setup", "{s}", "--methods", "paper", "--trials", "2", "--poses", "15"], "method paper"),
+        (["observability", "--geometry", "{g}", "--poses", "{p}", "--setup", "{s}", "--method", "length"],
+         "method 'length'"),
+    ],
+    ids=["setup-out", "delimiter", "quat-targets", "simulate-paper-targets", "observability-length-targets"],
+)  # fmt: skip
+def test_an_option_that_cannot_act_is_refused_naming_it(capsys, files, tmp_path, argv, words):
+    (tmp_path / "s.yaml").write_text(SETUP_YAML, encoding="utf-8")
+    names = {"g": files / "g.yaml", "m": files / "m.csv", "p": files / "p.csv", "s": tmp_path / "s.yaml"}
+    status, out, err = run(capsys, *[a.format(o=tmp_path, **names) for a in argv])
+    note = "hexcal: no --true"  # simulate's announcement of random machines, before the check
+    line = one_line("\n".join(x for x in err.splitlines() if not x.startswith(note)))
+    assert status == 1 and words in line, line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml"]
+
+
+@pytest.mark.parametrize("noise", ["leg=0.01", "pos=0.02,ang=0.0005"])
+def test_a_partial_noise_says_what_fills_the_rest(capsys, files, tmp_path, noise):
+    argv = [
+        "identify",
+        "--geometry",
+        files / "g.yaml",
+        "--data",
+        files / "m.csv",
+        "--out",
+        tmp_path / "r.yaml",
+    ]
+    status, _, err = run(capsys, *argv, "--noise", noise, "--force")
+    assert status == 0, err
+    given = [item.split("=")[0] for item in noise.split(",")]
+    said = [line for line in err.splitlines() if line.startswith("hexcal: warning: --noise gives only")]
+    assert len(said) == 1 and "the seed paper's values" in said[0], err
+    for key in {"leg", "pos", "ang"} - set(given):
+        assert f"{key}=" in said[0]
+    status, _, err = run(capsys, *argv, "--noise", "leg=0.01,pos=0.025,ang=0.001", "--force")
+    assert status == 0 and "--noise gives only" not in err

@@ -40,10 +40,10 @@ BLOCK_ROWS = 16_384
 #: Characters a field may have (the csv module's default limit); longer is refused.
 MAX_FIELD_CHARS = 131_072
 DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
-#: The text of a number, with either decimal mark.
 #: First characters that make a spreadsheet read a cell as a formula (an id starting with one
 #: is refused unless it is a plain number such as ``-1``; tab and CR cannot start a stripped id).
 FORMULA_MARKS = "=+-@"
+#: The text of a number, with either decimal mark.
 NUMBER_TEXT = re.compile(r"^[+-]?(\d+([.,]\d*)?|[.,]\d+)([eE][+-]?\d+)?$")
 
 ORIENTATION_GROUPS = {
@@ -115,6 +115,11 @@ class Dialect:
             raise InputError(f"delimiter must be one of ',', ';', tab, got {delimiter!r}")
         if decimal is not None and decimal not in (",", "."):
             raise InputError(f"decimal mark must be ',' or '.', got {decimal!r}")
+        if delimiter is not None and delimiter not in header:
+            raise InputError(
+                f"{path}: the delimiter {DELIMITERS[delimiter]} was given (--delimiter), but the header "
+                f"holds none; the file looks {DELIMITERS[looks]}-separated: leave --delimiter out"
+            )
         if delimiter is not None and delimiter != looks:
             warnings.warn(
                 f"{path}: the header looks {DELIMITERS[looks]}-separated, but the file is read "
