@@ -238,15 +238,16 @@ SETUP_YAML = (
 )
 
 
+IDENTIFY = ["identify", "--geometry", "{g}", "--data", "{m}", "--out", "{o}/r.yaml"]
+SYNTHESIZE = ["synthesize", "--nominal", "{g}", "--true", "paper-hmt-true", "--poses", "{p}"]
+
+
 @pytest.mark.parametrize(
     ("argv", "words"),
     [
-        (["identify", "--geometry", "{g}", "--data", "{m}", "--out", "{o}/r.yaml", "--setup-out", "{o}/s.yaml"],
-         "--setup-out"),
-        (["identify", "--geometry", "{g}", "--data", "{m}", "--out", "{o}/r.yaml", "--delimiter", ";"],
-         "--delimiter"),
-        (["synthesize", "--nominal", "{g}", "--true", "paper-hmt-true", "--poses", "{p}", "--setup", "{s}",
-          "--orientation", "quat", "--out", "{o}/t.csv"], "--orientation quat"),
+        ([*IDENTIFY, "--setup-out", "{o}/s.yaml"], "--setup-out"),
+        ([*IDENTIFY, "--delimiter", ";"], "--delimiter"),
+        ([*SYNTHESIZE, "--setup", "{s}", "--orientation", "quat", "--out", "{o}/t.csv"], "--orientation quat"),
         (["simulate", "--setup", "{s}", "--methods", "paper", "--trials", "2", "--poses", "15"], "method paper"),
         (["observability", "--geometry", "{g}", "--poses", "{p}", "--setup", "{s}", "--method", "length"],
          "method 'length'"),
