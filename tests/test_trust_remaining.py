@@ -247,7 +247,7 @@ SYNTHESIZE = ["synthesize", "--nominal", "{g}", "--true", "paper-hmt-true", "--p
     [
         ([*IDENTIFY, "--setup-out", "{o}/s.yaml"], "--setup-out"),
         ([*IDENTIFY, "--delimiter", ";"], "--delimiter"),
-        ([*SYNTHESIZE, "--setup", "{s}", "--orientation", "quat", "--out", "{o}/t.csv"], "--orientation quat"),
+        ([*SYNTHESIZE, "--setup", "{s}", "--orientation", "quat", "--out", "{o}/t"], "--orientation quat"),
         (["simulate", "--setup", "{s}", "--methods", "paper", "--trials", "2", "--poses", "15"], "method paper"),
         (["observability", "--geometry", "{g}", "--poses", "{p}", "--setup", "{s}", "--method", "length"],
          "method 'length'"),
