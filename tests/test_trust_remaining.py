@@ -258,7 +258,7 @@ SYNTHESIZE = ["synthesize", "--nominal", "{g}", "--true", "paper-hmt-true", "--p
 def test_an_option_that_cannot_act_is_refused_naming_it(capsys, files, tmp_path, argv, words):
     (tmp_path / "s.yaml").write_text(SETUP_YAML, encoding="utf-8")
     names = {"g": files / "g.yaml", "m": files / "m.csv", "p": files / "p.csv", "s": tmp_path / "s.yaml"}
-    status, out, err = run(capsys, *[a.format(o=tmp_path, **names) for a in argv])
+    status, _, err = run(capsys, *[a.format(o=tmp_path, **names) for a in argv])
     note = "hexcal: no --true"  # simulate's announcement of random machines, before the check
     line = one_line("\n".join(x for x in err.splitlines() if not x.startswith(note)))
     assert status == 1 and words in line, line
