@@ -285,3 +285,47 @@ def test_a_partial_noise_says_what_fills_the_rest(capsys, files, tmp_path, noise
         assert f"{key}=" in said[0]
     status, _, err = run(capsys, *argv, "--noise", "leg=0.01,pos=0.025,ang=0.001", "--force")
     assert status == 0 and "--noise gives only" not in err
+
+
+# -- setups: one reader policy with the geometry's ------------------------------------------
+def _tracker_data(capsys, files: Path, tmp_path: Path) -> Path:
+    (tmp_path / "true.yaml").write_text(SETUP_YAML, encoding="utf-8")
+    argv = ["synthesize", "--nominal", "paper-hmt", "--true", "paper-hmt-true", "--poses", files / "p.csv"]
+    assert run(capsys, *argv, "--setup", tmp_path / "true.yaml", "--out", tmp_path / "t.csv")[0] == 0
+    return tmp_path / "t.csv"
+
+
+@pytest.mark.parametrize(
+    ("targets", "words"),
+    [
+        (
+            "  t1: [0, 0, 60]\n  t2: [0, 0, 60.0]\n  t3: [-40, 160, 70]\n",
+            "targets t1 and t2 are at one point",
+        ),
+        (
+            "".join(f"  t{k}: [{k}, {k % 7}, 60]\n" for k in range(1, 2001)),
+            "2,000 targets, over the limit of 64",
+        ),
+    ],
+    ids=["coincident", "2000-targets"],
+)
+def test_a_setup_no_instrument_can_have_is_refused_at_once(capsys, files, tmp_path, targets, words):
+    data = _tracker_data(capsys, files, tmp_path)
+    frame = SETUP_YAML.split("targets:")[0]
+    (tmp_path / "s.yaml").write_text(frame + "targets:\n" + targets, encoding="utf-8")
+    argv = ["identify", "--geometry", files / "g.yaml", "--data", data, "--setup", tmp_path / "s.yaml"]
+    status, out, err = run(capsys, *argv, "--out", tmp_path / "r.yaml")
+    line = one_line(err)
+    assert status == 1 and out == "" and words in line, line
+    assert not (tmp_path / "r.yaml").exists()
+
+
+def test_a_message_naming_the_setups_targets_stays_one_short_line(capsys, files, tmp_path):
+    data = _tracker_data(capsys, files, tmp_path)
+    frame = SETUP_YAML.split("targets:")[0]
+    targets = "".join(f"  t{k}: [{k}, {k % 7}, 60]\n" for k in range(1, 61))
+    (tmp_path / "s.yaml").write_text(frame + "targets:\n" + targets, encoding="utf-8")
+    argv = ["identify", "--geometry", files / "g.yaml", "--data", data, "--setup", tmp_path / "s.yaml"]
+    status, _, err = run(capsys, *argv, "--out", tmp_path / "r.yaml")
+    line = one_line(err)
+    assert status == 1 and "missing column 't4.x'" in line and "and 52 more" in line and len(line) < 300, line

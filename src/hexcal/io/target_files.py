@@ -61,13 +61,13 @@ def _target_values(table: Table, setup: Setup) -> NDArray[np.float64]:
         if match and match.group(1) not in names:
             raise InputError(
                 f"{table.path}: column '{table.label(col)}': target {match.group(1)} "
-                f"is not in the setup ({', '.join(names)})"
+                f"is not in the setup ({_listed(names)})"
             )
     cols = [f"{t}.{ax}" for t in names for ax in "xyz"]
     for col in cols:
         if col not in table.columns:
             raise InputError(
-                f"{table.path}: missing column '{table.label(col)}' (the setup's targets: {', '.join(names)})"
+                f"{table.path}: missing column '{table.label(col)}' (the setup's targets: {_listed(names)})"
             )
     values = table.numbers(cols, empty=True).reshape(len(table), len(names), 3)
     lost = np.isnan(values)
@@ -120,6 +120,12 @@ def read_tool_measurements(
     pose = ("x", "y", "z", *(c for group in ORIENTATION_GROUPS.values() for c in group))
     table.numbers([c for c in pose if table.has(c)] + list(LEG_READING_COLUMNS))  # in one pass
     return Measurements(table_poses(table, euler), table.numbers(LEG_READING_COLUMNS), table.ids())
+
+
+def _listed(names: list[str] | tuple[str, ...], most: int = 8) -> str:
+    """Names for a message: the first ``most``, then how many more."""
+    shown = ", ".join(names[:most])
+    return shown if len(names) <= most else f"{shown} and {len(names) - most} more"
 
 
 def write_target_measurements(
