@@ -329,3 +329,30 @@ def test_a_message_naming_the_setups_targets_stays_one_short_line(capsys, files,
     status, _, err = run(capsys, *argv, "--out", tmp_path / "r.yaml")
     line = one_line(err)
     assert status == 1 and "missing column 't4.x'" in line and "and 52 more" in line and len(line) < 300, line
+
+
+# -- angles beyond a half turn --------------------------------------------------------------
+@pytest.mark.parametrize(("column", "value"), [("a_deg", "360"), ("b_deg", "-181"), ("a", "6.3")])
+def test_a_measured_angle_beyond_180_degrees_is_refused_naming_it(capsys, files, tmp_path, column, value):
+    """``a_deg = +360`` passed without a word (issue 22); the workspace refuses ±720° already,
+    and every pose reader now refuses such an angle the same way, on its line."""
+    lines = [x for x in (files / "m.csv").read_text(encoding="utf-8").splitlines() if not x.startswith("#")]
+    header = lines[0].split(",")
+    if column.endswith("_deg"):
+        header = [f"{h}_deg" if h in "abc" else h for h in header]
+    cells = lines[3].split(",")
+    cells[header.index(column)] = value
+    text = "\n".join([",".join(header), *lines[1:3], ",".join(cells), *lines[4:]]) + "\n"
+    (tmp_path / "x.csv").write_text(text, encoding="utf-8")
+    argv = [
+        "identify",
+        "--geometry",
+        files / "g.yaml",
+        "--data",
+        tmp_path / "x.csv",
+        "--out",
+        tmp_path / "r.yaml",
+    ]
+    status, _, err = run(capsys, *argv)
+    line = one_line(err)
+    assert status == 1 and f"line 4, column '{column}'" in line and "beyond ±180°" in line, line
