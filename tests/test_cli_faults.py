@@ -473,6 +473,15 @@ def _caught(pid: int) -> int:
     return int(next(line for line in status.splitlines() if line.startswith("SigCgt:")).split()[1], 16)
 
 
+def _ignored(pid: int) -> int:
+    """The mask of signals a process ignores (``SigIgn`` of ``/proc/PID/status``), 0 once gone."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return 0
+    return int(next(line for line in status.splitlines() if line.startswith("SigIgn:")).split()[1], 16)
+
+
 def _default_signals() -> None:
     """In the child: the three signals at their defaults, whatever the test runner ignores."""
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
@@ -538,14 +547,21 @@ def test_an_ignored_sighup_stays_ignored_as_under_nohup(tmp_path):
 def test_sighup_stops_paper_with_no_orphans_or_output(tmp_path, group):
     """SIGHUP during ``paper --jobs 2``: one line, 129, the workers gone, nothing written; sent
     to hexcal alone (``kill -HUP``) or to its whole process group, workers included (a closed
-    terminal). The signal is sent once both workers exist (polled, not timed)."""
+    terminal). The signal is sent once both workers are ready: they exist and ignore SIGHUP
+    (their start-up has run: a readiness marker read from /proc, polled, never a sleep), so
+    the parent alone stops the pool whatever the machine's load."""
     argv = ("paper", "--trials", "400", "--jobs", "2", "--quiet", "--out", "res")
     proc = start_hexcal(tmp_path, *argv, session=group)
     proc.send_signal(signal.SIGCONT)
     deadline = time.monotonic() + 120
-    while len(_children(proc.pid)) < 2 and proc.poll() is None and time.monotonic() < deadline:
-        time.sleep(0.01)
-    workers = _children(proc.pid)
+    hup = 1 << (signal.SIGHUP - 1)
+
+    def ready() -> set[int]:
+        return {pid for pid in _children(proc.pid) if _ignored(pid) & hup}
+
+    while len(ready()) < 2 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)  # polling a condition, not waiting for time to pass
+    workers = ready()
     assert len(workers) >= 2 and proc.poll() is None, "paper --jobs 2 started no workers"
     if group:
         os.killpg(proc.pid, signal.SIGHUP)

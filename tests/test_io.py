@@ -404,13 +404,17 @@ def test_quaternion_within_tolerance_is_normalised(tmp_path):
 
 
 def test_radian_columns_holding_degrees_warn(tmp_path):
-    rows = [[0, 0, 800, 0.01, 0.02, 0.03], [0, 0, 800, 10, -5, 2], [0, 0, 800, 0, 0, 0]]
+    rows = [[0, 0, 800, 0.01, 0.02, 0.03], [0, 0, 800, 2, -1.8, 1], [0, 0, 800, 0, 0, 0]]
     path = write_text(tmp_path / "oops.csv", csv_text(POSE_HEADER.split(","), rows))
     with pytest.warns(InputWarning) as record:
         poses, _ = read_poses(path, "XYZ")
     message = str(record[0].message)
     assert str(path) in message and "line 3" in message and "a_deg" in message
-    assert_array_equal(poses[1, 3:], [10, -5, 2])  # still read as given
+    assert_array_equal(poses[1, 3:], [2, -1.8, 1])  # within ±π: still read as given
+    rows[1][3:] = [10, -5, 2]  # beyond ±π (issue 22): no pose has such angles, refused
+    path = write_text(tmp_path / "oops.csv", csv_text(POSE_HEADER.split(","), rows))
+    with pytest.raises(InputError, match=r"line 3, column 'a': 10 is beyond ±180° .*a_deg"):
+        read_poses(path, "XYZ")
 
 
 def test_plausible_angles_do_not_warn(tmp_path):

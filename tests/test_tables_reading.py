@@ -134,9 +134,8 @@ def test_every_reader_honours_the_given_delimiter_and_decimal_mark(tmp_path, kin
             with pytest.raises(InputError, match="has a decimal comma") as info:
                 _values(reader(path, decimal="."))  # honoured: read with points, so refused
         assert str(path) in _one_line(info)
-        with pytest.warns(InputWarning, match="semicolon-separated"):
-            with pytest.raises(InputError):
-                _values(reader(path, delimiter="\t"))
+        with pytest.raises(InputError, match=r"tab was given .* holds none; the file looks semicolon"):
+            _values(reader(path, delimiter="\t"))  # one line naming the option, no warning
 
 
 def test_a_comma_cannot_be_both_and_odd_options_are_refused(tmp_path):

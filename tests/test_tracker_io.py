@@ -96,9 +96,8 @@ def test_overrides_that_contradict_the_file_warn(tmp_path):
     with pytest.warns(InputWarning, match="look like decimal commas"):
         with pytest.raises(InputError):
             read_target_measurements(path, SETUP, decimal=".")
-    with pytest.warns(InputWarning, match="semicolon-separated"):
-        with pytest.raises(InputError):
-            read_target_measurements(path, SETUP, delimiter=",")
+    with pytest.raises(InputError, match=r"comma was given .* holds none; the file looks semicolon"):
+        read_target_measurements(path, SETUP, delimiter=",")
     got = read_target_measurements(path, SETUP, delimiter=";", decimal=",")
     assert got.targets[0, 0, 0] == 2500.5
 

@@ -22,7 +22,7 @@ from hexcal.io import read_poses, save_geometry
 HOSTILE_IDS = [
     "<script>alert(1)</script>",
     '"><img src=x onerror=alert(2)>',
-    "--><script>alert(3)</script><!--",
+    "p--><script>alert(3)</script><!--",  # not '-' first: refused, a spreadsheet's formula
     "<svg onload=alert(4)>",
     "]]><script>alert(5)</script>",
     "</title><iframe src=javascript:alert(6)>",

@@ -192,6 +192,24 @@ def without_rigid_motions(
     return proj @ covariance @ proj.T
 
 
+def accuracy_geometry(geometry: Geometry, poses: ArrayLike | None) -> tuple[Geometry, str]:
+    """The geometry whose workspace box the predicted accuracy covers, and the words for it.
+
+    A geometry without a ``workspace:`` box (optional in a geometry file) gets the range of
+    ``poses`` (the calibration's own poses) as its box, said as such.
+
+    >>> from hexcal.core import preset
+    >>> g, where = accuracy_geometry(preset("paper-hmt").replace(workspace=None), np.eye(6))
+    >>> g.workspace[0].tolist(), where
+    ([0.0, 1.0], "the calibration poses' range (the geometry has no workspace box)")
+    """
+    if geometry.workspace is not None or poses is None or not len(poses):
+        return geometry, "the workspace"
+    arr = np.asarray(poses, dtype=float)
+    box = np.stack([arr.min(axis=0), arr.max(axis=0)], axis=1)
+    return geometry.replace(workspace=box), "the calibration poses' range (the geometry has no workspace box)"
+
+
 def accuracy_test_poses(geometry: Geometry, n_random: int = 200, seed: int = 0) -> NDArray[np.float64]:
     """The test poses of the predicted accuracy: the workspace corners and ``n_random`` uniform
     poses (seeded)."""

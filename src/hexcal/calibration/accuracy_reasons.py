@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.calibration.accuracy import (
+    accuracy_geometry,
     expected_validation,
     machine_mask,
     predicted_instrument_accuracy,
@@ -35,12 +36,15 @@ def accuracy_findings(
     cov = result.covariance[np.ix_(rows, rows)]
     rigid = None if result.gauge_directions is None else result.gauge_directions[rows]
     mask = machine_mask(result.geometry, names=names)
-    acc = predicted_pose_accuracy(result.geometry, cov, mask, rigid=rigid)
+    # over the workspace box, or the calibration poses' range where the geometry has none
+    poses = None if problem is None or result.poses is not None else problem.measured_poses()
+    geometry, where = accuracy_geometry(result.geometry, result.poses if poses is None else poses)
+    acc = predicted_pose_accuracy(geometry, cov, mask, rigid=rigid) | {"over": where}
     reasons = [
         Reason(
             "predicted-accuracy",
             "info",
-            f"predicted pose error after calibration over the workspace{_rigid_note(rigid)}: "
+            f"predicted pose error after calibration over {where}{_rigid_note(rigid)}: "
             f"position RMS "
             f"{acc['position_rms_mm']:.3g} mm (worst {acc['position_max_mm']:.3g}), orientation RMS "
             f"{acc['orientation_rms_rad']:.3g} rad (worst {acc['orientation_max_rad']:.3g})",
@@ -51,7 +55,7 @@ def accuracy_findings(
         acc["validation"] = _expected_validation(result, problem, noise, cov, mask, rigid)
         reasons.append(_validation_reason(acc["validation"]))
     if problem is not None:
-        acc["instrument"] = _instrument_accuracy(result, problem, mask)
+        acc["instrument"] = _instrument_accuracy(result, problem, mask, geometry)
         reasons += [_instrument_reason(entry) for entry in acc["instrument"] if entry["own_frame"]]
     return acc, reasons
 
@@ -86,7 +90,7 @@ def _validation_reason(expected: dict[str, Any]) -> Reason:
     )
 
 
-def _instrument_accuracy(result: Any, problem: Any, mask: NDArray) -> list[dict[str, Any]]:
+def _instrument_accuracy(result: Any, problem: Any, mask: NDArray, geometry: Any) -> list[dict[str, Any]]:
     """The predicted accuracy of what each session's instrument reads, in its own terms
     (:func:`hexcal.calibration.accuracy.predicted_instrument_accuracy`), per session."""
     if len(result.names) != problem.n_free:
@@ -99,7 +103,7 @@ def _instrument_accuracy(result: Any, problem: Any, mask: NDArray) -> list[dict[
         own = problem.free_in(part.block)
         rows = machine | own
         acc = predicted_instrument_accuracy(
-            result.geometry,
+            geometry,
             part.instrument,
             full[part.block],
             result.covariance[np.ix_(rows, rows)],

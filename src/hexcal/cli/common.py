@@ -60,7 +60,8 @@ def load_geometry(spec: str, euler: str | None = None) -> Geometry:
 
 
 def parse_noise(text: str | None, distribution: str = "uniform") -> NoiseModel:
-    """Parse ``leg=0.01,pos=0.025,ang=0.001`` (any subset; others keep the paper's values).
+    """Parse ``leg=0.01,pos=0.025,ang=0.001`` (any subset; others keep the paper's values,
+    said in a warning line naming them: a partial ``--noise`` never fills the rest silently).
 
     >>> parse_noise("leg=0.02").leg
     0.02
@@ -87,9 +88,23 @@ def parse_noise(text: str | None, distribution: str = "uniform") -> NoiseModel:
             raise CommandError(f"--noise: {key} must be a finite value >= 0, got {value}")
         values[keys[key]] = number
     try:
-        return NoiseModel(distribution=distribution, **values)
+        model = NoiseModel(distribution=distribution, **values)
     except ValueError as exc:
         raise CommandError(f"--noise: {exc}") from None
+    if values and len(values) < len(keys):
+        import warnings
+
+        from hexcal.errors import HexcalWarning
+
+        short = {v: k for k, v in keys.items()}
+        rest = [f"{short[name]}={getattr(model, name):g}" for name in keys.values() if name not in values]
+        warnings.warn(
+            f"--noise gives only {', '.join(short[n] for n in values)}: {', '.join(rest)} "
+            "(the seed paper's values) for the rest",
+            HexcalWarning,
+            stacklevel=2,
+        )
+    return model
 
 
 #: ``--delimiter`` values and the characters they stand for.

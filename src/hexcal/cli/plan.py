@@ -163,10 +163,6 @@ def cmd_observability(args: argparse.Namespace) -> None:
     from hexcal.report import render
 
     check_outputs(args.json, args.html)
-    if args.html:
-        from hexcal.report import check_html_target
-
-        check_html_target(args.html, [args.geometry, args.poses, args.test_poses], [args.json])
     geometry = load_geometry(args.geometry, args.euler)
     instrument = load_instrument(args.setup, geometry.euler)
     scaling = choice(args.scaling, SCALINGS, "--scaling")
@@ -238,10 +234,6 @@ def cmd_select(args: argparse.Namespace) -> None:
     from hexcal.report import render
 
     check_outputs(args.out, args.json, args.html)
-    if args.html:
-        from hexcal.report import check_html_target
-
-        check_html_target(args.html, [args.geometry], [args.out, args.json])
     geometry = load_geometry(args.geometry, args.euler)
     instrument = load_instrument(args.setup, geometry.euler)
     criterion = choice(args.criterion, CRITERIA, "--criterion")

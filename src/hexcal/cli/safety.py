@@ -285,14 +285,6 @@ def _names(args: argparse.Namespace, attr: str) -> list[str]:
     return out
 
 
-#: The files that commands whose ``register`` does not declare ``folder_files`` write into
-#: their ``--out`` folder (until it does: ``cli/simulate.py``).
-FOLDER_FILES: dict[str, dict[str, tuple[str, ...]]] = {
-    "simulate": {"out": ("study.json", "study.csv", "study.png")},
-    "paper": {"out": ("table1.json", "fig10_parameter_errors.png", "fig11_validation_errors.png")},
-}
-
-
 def declared_files(args: argparse.Namespace) -> tuple[list[str], list[str], list[str]]:
     """The inputs, outputs and folders a command declares (``set_defaults`` in ``register``).
 
@@ -313,7 +305,7 @@ def declared_files(args: argparse.Namespace) -> tuple[list[str], list[str], list
         if isinstance(values.get(dest), str):
             inputs += [os.fspath(f) for f in files(values[dest])]
     outputs = _names(args, "outputs")
-    for dest, names in (folder_files or FOLDER_FILES.get(values.get("command") or "", {})).items():
+    for dest, names in (folder_files or {}).items():
         if values.get(dest) is not None:
             outputs += [os.path.join(os.fspath(values[dest]), name) for name in names]
     return inputs, outputs, _names(args, "folders")

@@ -70,6 +70,12 @@ def _machines(nominal: Any, true: Any) -> dict[str, Any]:
     }
 
 
+#: The files ``simulate`` and ``paper`` write into their ``--out`` folder (declared outputs:
+#: each checked before any work, like every output).
+SIMULATE_FILES = ("study.json", "study.csv", "study.png")
+PAPER_FILES = ("table1.json", "fig10_parameter_errors.png", "fig11_validation_errors.png")
+
+
 def cmd_simulate(args: argparse.Namespace) -> None:
     """Monte Carlo study of calibration campaigns: strategies x pose counts x noise x methods,
     measured by any instrument (``--setup``: its true setup)."""
@@ -84,8 +90,6 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     campaign = instrument_campaign(instrument, args.fit, missing_rate=args.missing_rate)
     true, note = _true_machine(args, default="random")
     check_trials(args.trials)
-    if args.html:
-        _check_html(args, [args.geometry, args.true], ["study.json", "study.csv", "study.png"])
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     bad = [m for m in methods if m not in ESTIMATORS]
     if bad or not methods:
@@ -181,9 +185,6 @@ def cmd_paper(args: argparse.Namespace) -> None:
     out = output_folder(args.out)
     if note:
         print(note, file=sys.stderr)
-    if args.html:
-        figures = ["table1.json", "fig10_parameter_errors.png", "fig11_validation_errors.png"]
-        _check_html(args, [args.geometry, args.true], figures)
     print(
         f"Simulating the seed paper's experiment: {args.trials} trials, "
         f"nominal {nominal.name or args.geometry}, "
@@ -239,17 +240,6 @@ def cmd_paper(args: argparse.Namespace) -> None:
             f"wrote {out / 'table1.json'} and the figures fig10_parameter_errors.png, "
             "fig11_validation_errors.png"
         )
-
-
-def _check_html(args: argparse.Namespace, inputs: list[str], outputs: list[str]) -> None:
-    """Refuse ``--html`` up front: a missing folder, an input, or another output."""
-    from pathlib import Path
-
-    from hexcal.cli.common import check_outputs
-    from hexcal.report import check_html_target
-
-    check_html_target(args.html, inputs, [Path(args.out) / name for name in outputs] if args.out else [])
-    check_outputs(args.html)
 
 
 def _write_html(
@@ -317,6 +307,7 @@ def register(sub: Any) -> None:
         inputs=("geometry", "true", "pose_covariance", "setup"),
         outputs=("html",),
         folders=("out",),
+        folder_files={"out": SIMULATE_FILES},
     )
 
     p = sub.add_parser("paper", help="reproduce the seed paper's Table I by Monte Carlo")
@@ -342,7 +333,11 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(
-        func=with_scheduler(cmd_paper), inputs=("geometry", "true"), outputs=("html",), folders=("out",)
+        func=with_scheduler(cmd_paper),
+        inputs=("geometry", "true"),
+        outputs=("html",),
+        folders=("out",),
+        folder_files={"out": PAPER_FILES},
     )
     for name in ("simulate", "paper"):
         show_defaults(sub.choices[name])

@@ -38,6 +38,26 @@ SETUP_KEYS = ("units", "euler", "instrument_frame", "targets", "tool", "fixed", 
 #: Solver scale of a setup angle (rad).
 ANGLE_SCALE = 1e-3
 TARGET_NAME = re.compile(r"^t[1-9][0-9]*$")
+#: Targets a setup file may hold (a tracker follows a few; the limit bounds the work of a file).
+MAX_TARGETS = 64
+#: Two targets closer than this (mm) are one point: a setup file naming both is refused.
+TARGET_SEPARATION = 1e-6
+
+
+def _distinct_targets(targets: dict[Any, Any]) -> None:
+    """Refuse two targets of a setup file at one point (:class:`InputError`, naming both)."""
+    names = list(targets)
+    points = np.array([targets[n] for n in names], dtype=float)
+    gaps = np.linalg.norm(points[:, None, :] - points[None, :, :], axis=2)
+    close = np.argwhere(np.triu(gaps <= TARGET_SEPARATION, k=1))
+    if close.size:
+        i, j = close[0]
+        raise InputError(
+            f"targets {names[i]} and {names[j]} are at one point {points[i].tolist()} (mm); "
+            "each target is a distinct point of the platform"
+        )
+
+
 FRAME_NAMES = tuple(f"frame.{k}" for k in POSE_NAMES)
 TOOL_NAMES = tuple(f"tool.{k}" for k in POSE_NAMES)
 POSE_SCALES = np.array([1.0, 1.0, 1.0, ANGLE_SCALE, ANGLE_SCALE, ANGLE_SCALE])
@@ -262,11 +282,14 @@ class Setup:
         if targets is not None:
             if not isinstance(targets, dict) or not targets:
                 raise InputError("targets must be a non-empty mapping like {t1: [x, y, z]}")
+            if len(targets) > MAX_TARGETS:
+                raise InputError(f"targets: {len(targets):,} targets, over the limit of {MAX_TARGETS}")
             for name, value in targets.items():
                 if not isinstance(value, list | tuple) or len(value) != 3:
                     raise InputError(f"targets.{name}: must be a list [x, y, z] (mm)")
                 for k, v in enumerate(value):
                     _number(v, f"targets.{name}[{k}]")
+            _distinct_targets(targets)
         tool = data.get("tool")
         if tool is not None:
             if targets is not None:

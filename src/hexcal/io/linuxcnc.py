@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.core.geometry import Geometry
+from hexcal.core.text import printable as _printable
 from hexcal.errors import InputError
 
 #: File names written by :func:`export_linuxcnc`.
@@ -99,30 +100,12 @@ _INI_KEY = re.compile(r"(HOME|HOME_OFFSET|MIN_LIMIT|MAX_LIMIT|HEXCAL_LEG_GAIN) =
 
 
 def printable(value: object, most: int = MAX_VALUE_CHARS) -> str:
-    """``str(value)`` with every character that is not printable escaped, cut to ``most``.
-
-    Line breaks, tabs, other control and format characters and the Unicode line and
-    paragraph separators become ``\\xNN``, ``\\uNNNN`` or ``\\UNNNNNNNN``; printable
-    characters (accents included) stay as they are.
+    """``str(value)`` one line and printable (:func:`hexcal.core.text.printable`), cut to ``most``.
 
     >>> printable("m1\\nloadusr -w touch x")
     'm1\\\\x0aloadusr -w touch x'
-    >>> printable("x" * 100, most=10)
-    'xxxxxxx...'
     """
-    out = []
-    for ch in str(value):
-        code = ord(ch)
-        if ch.isprintable():
-            out.append(ch)
-        elif code < 0x100:
-            out.append(f"\\x{code:02x}")
-        elif code < 0x10000:
-            out.append(f"\\u{code:04x}")
-        else:
-            out.append(f"\\U{code:08x}")
-    text = "".join(out)
-    return text if len(text) <= most else text[: max(0, most - 3)] + "..."
+    return _printable(value, most)
 
 
 def comment_line(text: str) -> str:

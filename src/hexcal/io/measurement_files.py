@@ -50,11 +50,26 @@ def _orientation_group(table: Table) -> str:
     return present[0]
 
 
+def _check_half_turn(table: Table, group: str, values: NDArray[np.float64], half: float) -> None:
+    """Refuse an angle beyond ±180° (the angles of a pose are defined within it, as the
+    workspace's are): ``a_deg = 360`` is a typing error or another convention, never read."""
+    over = np.argwhere(np.abs(values) > half * (1 + 1e-12))
+    if over.size:
+        k, j = over[0]
+        col = table.label(ORIENTATION_GROUPS[group][j])
+        where = f"{table.path}: line {table.line(int(k))}, column '{col}': {values[k, j]:g} is beyond ±180°"
+        if group == "deg":
+            raise InputError(f"{where}; give every angle within ±180°")
+        raise InputError(f"{where} (±π rad); if the angles are degrees, name the columns a_deg, b_deg, c_deg")
+
+
 def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
     """Poses ``(m, 6)`` in mm and rad from a table's pose columns (docs/formats.md "Pose file")."""
     group = _orientation_group(table)
     both = table.numbers(("x", "y", "z", *ORIENTATION_GROUPS[group]))  # each line split once
     position, values = both[:, :3], both[:, 3:]
+    if group != "quat":
+        _check_half_turn(table, group, values, 180.0 if group == "deg" else np.pi)
     if group == "rad":
         big = np.flatnonzero(np.any(np.abs(values) > DEGREE_SUSPICION, axis=1))
         if big.size:

@@ -18,6 +18,7 @@ the number parser; others are read line by line. Every file kind takes the same 
 from __future__ import annotations
 
 import os
+import re
 import warnings
 from collections.abc import Iterator, Mapping
 
@@ -37,6 +38,16 @@ _BOM = "\ufeff"
 #: Bytes a chunk may hold and still be one block of plain rows (no quotes, comments, CR...).
 _PLAIN = bytes(b for b in range(32, 127) if b not in b'"#') + b"\n\t"
 _BLANKS = np.frombuffer(b"\n\r \t", np.uint8)
+
+
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+
+
+def _lines(text: str) -> list[str]:
+    """The lines of ``text``, broken only at CR, LF and CRLF: a Unicode line separator (U+2028,
+    U+0085...) inside a field stays in it (and is refused there, or read as the text it is)."""
+    parts = _LINE_BREAK.split(text)
+    return parts[:-1] if parts and parts[-1] == "" else parts
 
 
 class _Scanner:
@@ -108,7 +119,7 @@ class _Scanner:
                     lines = np.arange(lineno, lineno + len(ends), dtype=np.int64)
                     return tables.TableBlock(piece.decode("ascii"), lines, ends, False), len(ends)
         try:
-            parts = piece.decode("utf-8").splitlines()
+            parts = _lines(piece.decode("utf-8"))
         except UnicodeDecodeError as exc:
             raise InputError(f"{self.path}: line {lineno} or after: cannot read: {exc}") from None
         records, numbers = [], []

@@ -25,10 +25,17 @@ from typing import IO
 import numpy as np
 from numpy.typing import NDArray
 
+from hexcal.core.text import printable
 from hexcal.instruments.pose import Measurements
 from hexcal.io.files import atomic_write
 from hexcal.io.outputs import OutputError, OutputSet
-from hexcal.io.tables import LEG_LENGTH_COLUMNS, LEG_READING_COLUMNS, ORIENTATION_GROUPS
+from hexcal.io.tables import (
+    FORMULA_MARKS,
+    LEG_LENGTH_COLUMNS,
+    LEG_READING_COLUMNS,
+    NUMBER_TEXT,
+    ORIENTATION_GROUPS,
+)
 
 #: Bytes of one value's slot, in 4-byte words: separator and sign; "0" and the 15 digits; the
 #: point and the zeros of ``0.000d``; the 15 digits again; the exponent (``e-05``). NUL bytes
@@ -211,15 +218,27 @@ def _plain_ids(ids: list[str]) -> NDArray[np.uint8] | None:
     cells = np.array(ids, dtype="S")
     table = cells.view(np.uint8).reshape(len(ids), cells.dtype.itemsize)
     first = table[:, 0]
-    if np.any((first == 0) | (first == ord("#")) | (first <= 32) | ((first >= 28) & (first <= 31))):
+    marks = np.isin(first, np.frombuffer(FORMULA_MARKS.encode(), np.uint8))
+    control = ((table > 0) & (table < 32)) | (table == 127)
+    if np.any((first == 0) | (first == ord("#")) | (first <= 32) | marks) or control.any():
         return None  # empty, a comment mark or a blank first: the exact checks below
     return table
 
 
 def _checked_ids(name: str, ids: list[str]) -> list[str]:
-    wrong = [t for t in ids if not t.strip() or t.lstrip()[:1] == "#" or "\n" in t or "\r" in t]
+    wrong = [
+        t
+        for t in ids
+        if not t.strip()
+        or t.lstrip()[0] == "#"
+        or not t.isprintable()
+        or (t[0] in FORMULA_MARKS and not NUMBER_TEXT.match(t))
+    ]
     if wrong:
-        raise OutputError(f"{name}: id {wrong[0]!r} cannot be written (empty, '#' or a line break)")
+        raise OutputError(
+            f"{name}: id {wrong[0]!r} cannot be written (empty, '#', a control "
+            "character or a spreadsheet formula mark first)"
+        )
     joined = "\x00".join(ids)
     return [_quote(t) for t in ids] if '"' in joined or "," in joined else ids
 
@@ -262,7 +281,7 @@ class TableWriter:
         if not self.columns:
             raise ValueError("a table needs at least one column")
         if comment:
-            fh.write("".join(f"# {line}\n" for line in comment.splitlines()))
+            fh.write("".join(f"# {printable(line)}\n" for line in comment.rstrip("\n").split("\n")))
         fh.write(",".join((["id"] if with_ids else []) + [_quote(c) for c in self.columns]) + "\n")
 
     def write(self, data: NDArray[np.float64], ids: Sequence[str] | None = None) -> None:

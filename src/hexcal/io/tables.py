@@ -40,6 +40,9 @@ BLOCK_ROWS = 16_384
 #: Characters a field may have (the csv module's default limit); longer is refused.
 MAX_FIELD_CHARS = 131_072
 DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
+#: First characters that make a spreadsheet read a cell as a formula (an id starting with one
+#: is refused unless it is a plain number such as ``-1``; tab and CR cannot start a stripped id).
+FORMULA_MARKS = "=+-@"
 #: The text of a number, with either decimal mark.
 NUMBER_TEXT = re.compile(r"^[+-]?(\d+([.,]\d*)?|[.,]\d+)([eE][+-]?\d+)?$")
 
@@ -78,10 +81,8 @@ def unit_refused(name: str, unit: str) -> str | None:
 
 
 def check_column_map(columns: Mapping[str, str] | None) -> dict[str, str] | None:
-    """A column map (hexcal name -> file column) checked: known names, each file column once.
-
-    Raises :class:`~hexcal.errors.UsageError` (one line) otherwise.
-    """
+    """A column map (hexcal name -> file column) checked: known names, each file column once
+    (else a one-line :class:`~hexcal.errors.UsageError`)."""
     if columns is None:
         return None
     seen: dict[str, str] = {}
@@ -112,6 +113,11 @@ class Dialect:
             raise InputError(f"delimiter must be one of ',', ';', tab, got {delimiter!r}")
         if decimal is not None and decimal not in (",", "."):
             raise InputError(f"decimal mark must be ',' or '.', got {decimal!r}")
+        if delimiter is not None and delimiter not in header:
+            raise InputError(
+                f"{path}: the delimiter {DELIMITERS[delimiter]} was given (--delimiter), but the header "
+                f"holds none; the file looks {DELIMITERS[looks]}-separated: leave --delimiter out"
+            )
         if delimiter is not None and delimiter != looks:
             warnings.warn(
                 f"{path}: the header looks {DELIMITERS[looks]}-separated, but the file is read "
@@ -380,7 +386,9 @@ class Table:
             return tuple(str(first + k) for k in range(len(self)))
         ids = self.cells("id")
         repeated = len(set(ids)) != len(ids) or (seen is not None and not seen.keys().isdisjoint(ids))
-        if repeated or "" in ids or "\n#" in "\n" + "\n".join(ids):
+        joined = "\n" + "\n".join(ids)
+        formula = any(f"\n{mark}" in joined for mark in FORMULA_MARKS)
+        if repeated or "" in ids or "\n#" in joined or formula or not "".join(ids).isprintable():
             self._id_error(ids, dict(seen or {}))
         if seen is not None:
             seen.update(zip(ids, self.lines, strict=True))
@@ -397,6 +405,16 @@ class Table:
                 raise InputError(
                     f"{self.path}: line {line}, {where}: id {_shown(value)} starts with '#', "
                     "which marks comments; rename it"
+                )
+            if not value.isprintable():
+                raise InputError(
+                    f"{self.path}: line {line}, {where}: id {_shown(value)} holds a control or "
+                    "line-separator character; ids are written into other files: rename it"
+                )
+            if value[0] in FORMULA_MARKS and not NUMBER_TEXT.match(value):
+                raise InputError(
+                    f"{self.path}: line {line}, {where}: id {_shown(value)} starts with "
+                    f"{value[0]!r}, which a spreadsheet opening hexcal's tables runs as a formula; rename it"
                 )
             if value in seen:
                 raise InputError(

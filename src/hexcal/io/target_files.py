@@ -20,6 +20,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from hexcal.core.text import printable
 from hexcal.errors import InputError, UsageError
 from hexcal.instruments.pose import Measurements
 from hexcal.instruments.setup import Setup
@@ -60,13 +61,13 @@ def _target_values(table: Table, setup: Setup) -> NDArray[np.float64]:
         if match and match.group(1) not in names:
             raise InputError(
                 f"{table.path}: column '{table.label(col)}': target {match.group(1)} "
-                f"is not in the setup ({', '.join(names)})"
+                f"is not in the setup ({_listed(names)})"
             )
     cols = [f"{t}.{ax}" for t in names for ax in "xyz"]
     for col in cols:
         if col not in table.columns:
             raise InputError(
-                f"{table.path}: missing column '{table.label(col)}' (the setup's targets: {', '.join(names)})"
+                f"{table.path}: missing column '{table.label(col)}' (the setup's targets: {_listed(names)})"
             )
     values = table.numbers(cols, empty=True).reshape(len(table), len(names), 3)
     lost = np.isnan(values)
@@ -121,14 +122,20 @@ def read_tool_measurements(
     return Measurements(table_poses(table, euler), table.numbers(LEG_READING_COLUMNS), table.ids())
 
 
+def _listed(names: list[str] | tuple[str, ...], most: int = 8) -> str:
+    """Names for a message: the first ``most``, then how many more."""
+    shown = ", ".join(names[:most])
+    return shown if len(names) <= most else f"{shown} and {len(names) - most} more"
+
+
 def write_target_measurements(
     path: str | os.PathLike[str], data: TargetMeasurements, comment: str | None = None
 ) -> None:
     """Write a target measurement file (standard CSV; lost targets as empty cells), atomically."""
     cols = ["id", *LEG_READING_COLUMNS] + [f"{t}.{ax}" for t in data.names for ax in "xyz"]
     with atomic_write(path) as fh:
-        for line in (comment or "").splitlines():
-            fh.write(f"# {line}\n")
+        for line in comment.rstrip("\n").split("\n") if comment else ():
+            fh.write(f"# {printable(line)}\n")
         writer = csv.writer(fh, lineterminator="\n")
         writer.writerow(cols)
         flat = data.targets.reshape(len(data), -1)

@@ -25,6 +25,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from hexcal.core.text import printable_lines
+
 _STYLE = """
 :root { --fg: #1d232a; --muted: #5b6570; --line: #d7dce1; --pass: #1a7f37; --warn: #9a6700;
         --fail: #cf222e; --bg-alt: #f6f8fa; }
@@ -97,7 +99,7 @@ document.querySelectorAll("table.sortable").forEach(function (table) {
 
 def esc(value: Any) -> str:
     """HTML-escaped text of a value."""
-    return html.escape(str(value), quote=True)
+    return html.escape(printable_lines(value), quote=True)
 
 
 def number(value: Any, digits: int = 6) -> str:

@@ -62,8 +62,12 @@ class SerialExecutor:
 
 
 def worker_signals() -> None:
-    """In a pool worker: SIGINT ignored (the parent stops the pool), SIGTERM kills at once."""
+    """In a pool worker: SIGINT and SIGHUP ignored (the parent stops the pool: a closed
+    terminal sends SIGHUP to every process of its group, and only the parent decides, so that
+    it never sees a broken pool instead of the signal), SIGTERM kills at once (the parent
+    terminates its workers with it)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 

@@ -22,6 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 from matplotlib.ticker import LogFormatterSciNotation, MaxNLocator
 
+from hexcal.core.text import printable_lines
 from hexcal.report.staging import staged_path
 
 #: Above this many points a scatter or line layer is rasterised inside the SVG.
@@ -57,7 +58,7 @@ def plain(text: Any) -> str:
     >>> plain("rig $1$")
     'rig \\\\$1\\\\$'
     """
-    return str(text).replace("$", r"\$")
+    return printable_lines(text).replace("$", r"\$")
 
 
 def note(fig: Any, text: str) -> None:
