@@ -218,7 +218,7 @@ def test_ik_euler_option_with_quaternion_poses(capsys, tmp_path, paper):
 def test_ik_warns_about_infeasible_poses_and_degree_like_radians(capsys, tmp_path):
     poses, out = tmp_path / "p.csv", tmp_path / "legs.csv"
     write_poses(
-        poses, [[0, 0, 800, 0, 0, 0], [0, 0, 2000, 0, 0, 0], [0, 0, 800, 5, 0, 0]], ids=["a", "b", "c"]
+        poses, [[0, 0, 800, 0, 0, 0], [0, 0, 2000, 0, 0, 0], [0, 0, 800, 2, 0, 0]], ids=["a", "b", "c"]
     )
     status, _, err = run(capsys, "ik", "--geometry", "paper-hmt", "--poses", poses, "--out", out)
     assert status == 0

@@ -356,3 +356,24 @@ def test_a_measured_angle_beyond_180_degrees_is_refused_naming_it(capsys, files,
     status, _, err = run(capsys, *argv)
     line = one_line(err)
     assert status == 1 and f"line 4, column '{column}'" in line and "beyond ±180°" in line, line
+
+
+# -- one limit for every reader: target files too ------------------------------------------
+@pytest.mark.parametrize("kind", ["pose", "targets"])
+def test_a_huge_field_and_too_many_rows_are_one_line_for_every_file_kind(capsys, files, tmp_path, kind):
+    """A field of 200,000 characters took 32 s and ended in a traceback (issue 22), in a target
+    file at once; ``--max-rows`` was ignored by target files. Both are one line now, at once."""
+    data, extra = files / "m.csv", []
+    if kind == "targets":
+        data, extra = _tracker_data(capsys, files, tmp_path), ["--setup", tmp_path / "true.yaml"]
+    argv = ["identify", "--geometry", files / "g.yaml", *extra, "--out", tmp_path / "r.yaml"]
+    status, _, err = run(capsys, *argv, "--data", data, "--max-rows", "5")
+    assert status == 1 and "more than 5 data rows" in one_line(err)
+    lines = [x for x in data.read_text(encoding="utf-8").splitlines() if not x.startswith("#")]
+    cells = lines[2].split(",")
+    cells[8] = "9" * 200_000
+    (tmp_path / "big.csv").write_text("\n".join([*lines[:2], ",".join(cells), *lines[3:]]) + "\n")
+    status, _, err = run(capsys, *argv, "--data", tmp_path / "big.csv")
+    line = one_line(err)
+    assert status == 1 and "line 3" in line and "200,000 characters, over the limit" in line, line
+    assert not (tmp_path / "r.yaml").exists()

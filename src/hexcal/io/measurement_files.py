@@ -60,7 +60,10 @@ def _check_half_turn(table: Table, group: str, values: NDArray[np.float64], half
         where = f"{table.path}: line {table.line(int(k))}, column '{col}': {values[k, j]:g} is beyond ±180°"
         if group == "deg":
             raise InputError(f"{where}; give every angle within ±180°")
-        raise InputError(f"{where} (±π rad); if the angles are degrees, name the columns a_deg, b_deg, c_deg")
+        raise InputError(
+            f"{where} (±π rad): the angles look like degrees in radian columns; name the columns "
+            "a_deg, b_deg, c_deg"
+        )
 
 
 def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
