@@ -31,10 +31,10 @@ Columns = Mapping[str, str] | None
 #: normalised). 1e-3 admits instruments that print 4 decimals and catches a wrong column.
 QUATERNION_NORM_TOLERANCE = 1e-3
 
-#: Radian angle columns beyond this magnitude draw a warning that they may be degrees: no
-#: Euler angle in radians exceeds π (angles between π/2 and π are an instrument frame turned
-#: that far, as real setups are).
-DEGREE_SUSPICION = math.pi * (1 + 1e-9)
+#: Radian angle columns beyond this magnitude draw a warning that they may be degrees (beyond π
+#: they are refused: no Euler angle in radians exceeds it); an instrument frame turned further
+#: than a quarter turn draws it too, and the warning says how to silence a real mistake.
+DEGREE_SUSPICION = math.pi / 2
 
 
 def _orientation_group(table: Table) -> str:
@@ -78,7 +78,7 @@ def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
         if big.size:
             warnings.warn(
                 f"{table.path}: line {table.line(int(big[0]))}: angles a, b, c are in radians, but "
-                f"{big.size} row(s) exceed ±π; if they are degrees, name the columns "
+                f"{big.size} row(s) exceed ±π/2; if they are degrees, name the columns "
                 "a_deg, b_deg, c_deg",
                 InputWarning,
                 stacklevel=2,
