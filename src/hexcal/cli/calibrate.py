@@ -61,6 +61,16 @@ def read_sessions(args: argparse.Namespace, geometry: Any) -> list[Any]:
     return read(args.data, args.setup or [], geometry.euler, **table_reading(args))
 
 
+def _given(**files: Any) -> dict[str, Any]:
+    """The input files given, by label: one path as a string, several as a list; none left out."""
+    out: dict[str, Any] = {}
+    for label, value in files.items():
+        paths = [str(v) for v in ([] if value is None else value if isinstance(value, list) else [value])]
+        if paths:
+            out[label] = paths[0] if len(paths) == 1 else paths
+    return out
+
+
 def _setup_outputs(args: argparse.Namespace) -> list[str]:
     """The calibrated setups ``--setup-out`` names: a file for one data file, else one file per
     session in the folder ``--setup-out`` (declared now, before any work)."""
@@ -135,9 +145,7 @@ def cmd_identify(args: argparse.Namespace) -> None:
             f"verdict fail: {'; '.join(serious)}; nothing written (--force writes the geometry anyway)"
         )
     calibration = result.calibration_metadata()
-    calibration["data"] = [str(d) for d in args.data] if len(args.data) > 1 else str(args.data[0])
-    if args.setup:
-        calibration["setup"] = [str(s) for s in args.setup] if len(args.setup) > 1 else str(args.setup[0])
+    calibration |= _given(data=args.data, setup=args.setup)
     calibration["outliers"] = list(result.outliers)
     if choice is not None:
         calibration["leg_model_choice"] = choice.to_dict()
@@ -234,11 +242,7 @@ def cmd_validate(args: argparse.Namespace) -> None:
         from hexcal.report import render_html, validation_report
 
         results = {"calibrated": calibrated} | ({"nominal": nominal} if nominal else {})
-        files = {"geometry": args.geometry, "data": args.data[0]} | (
-            {"nominal": args.nominal} if args.nominal else {}
-        )
-        if args.setup:
-            files["setup"] = args.setup[0]
+        files = _given(geometry=args.geometry, data=args.data, nominal=args.nominal, setup=args.setup)
         with atomic_write(args.html) as fh:
             fh.write(render_html(validation_report(results, inputs_record(files, args))))
         print(f"wrote the HTML report to {args.html}")
@@ -246,15 +250,13 @@ def cmd_validate(args: argparse.Namespace) -> None:
 
 def cmd_synthesize(args: argparse.Namespace) -> None:
     """A simulated data file of a known machine (and instrument setup)."""
-    from hexcal.instruments import instrument_for
-    from hexcal.io import load_setup, read_poses, write_session_data
+    from hexcal.io import load_instrument, read_poses, write_session_data
     from hexcal.simulation import simulate_session
 
     check_outputs(args.out)
     nominal = load_geometry(args.nominal, args.euler)
     true = load_geometry(args.true, nominal.euler)
-    setup = load_setup(args.setup).in_euler(nominal.euler) if args.setup else None
-    instrument = instrument_for(setup)
+    instrument = load_instrument(args.setup, nominal.euler)
     if instrument.unregistered:
         raise CommandError(f"{args.setup}: simulation needs the true instrument frame, not auto")
     poses, ids = read_poses(args.poses, nominal.euler, **table_reading(args))
@@ -262,10 +264,8 @@ def cmd_synthesize(args: argparse.Namespace) -> None:
     options = {"missing_rate": args.missing_rate} if args.missing_rate else {}
     session = simulate_session(nominal, true, instrument, poses, noise, args.seed, tuple(ids), **options)
     comment = f"simulated: nominal {args.nominal}, true {args.true}, seed {args.seed}, noise {noise}"
-    if args.setup:
-        comment += f", setup {args.setup}" + (
-            f", missing rate {args.missing_rate:g}" if args.missing_rate else ""
-        )
+    comment += "".join(f", {label} {value}" for label, value in _given(setup=args.setup).items())
+    comment += f", missing rate {args.missing_rate:g}" if args.missing_rate else ""
     write_session_data(args.out, session, nominal.euler, args.orientation, comment)
     print(f"wrote {len(session)} simulated observation(s) of {instrument.describe()} to {args.out}")
 
