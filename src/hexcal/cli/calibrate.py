@@ -23,14 +23,12 @@ from hexcal.cli.common import (
     check_outputs,
     inputs_record,
     load_geometry,
-    noise_from_args,
-    noise_options,
-    parse_noise,
     show_defaults,
     table_options,
     table_reading,
     warn,
 )
+from hexcal.cli.noise import noise_from_args, noise_options, parse_noise
 
 #: Default ``--sigma-limit``: a parameter combination whose predicted σ exceeds this
 #: fraction of the platform radius is poorly determined (``warn``), beyond three times it

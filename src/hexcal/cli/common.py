@@ -1,5 +1,5 @@
-"""Helpers shared by the ``hexcal`` subcommands: geometry loading with ``--euler``, noise
-and id-list options, the ``--candidates`` spec and its feasibility filter, output-path
+"""Helpers shared by the ``hexcal`` subcommands: geometry loading with ``--euler``, id-list
+and table options, the ``--fit`` mask, the ``--candidates`` spec and its feasibility filter, output-path
 checks, warnings and progress lines.
 
 This module imports only the standard library and :mod:`hexcal.errors` at its top, so
@@ -22,7 +22,7 @@ from hexcal.errors import UsageError
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from hexcal.core import Geometry, NoiseModel
+    from hexcal.core import Geometry
 
 #: Names of the built-in geometries (``hexcal.core.PRESETS``), spelled here so that the
 #: parser is built without importing numpy; ``tests/test_cli.py`` checks they agree.
@@ -33,9 +33,6 @@ GEOMETRY_HELP = f"geometry YAML file or preset ({', '.join(PRESET_NAMES)})"
 
 #: Help of ``--euler``.
 EULER_HELP = "Euler sequence of the angles (default: the geometry's)"
-
-#: Help of the planning commands' ``--noise``.
-NOISE_HELP = "noise half-widths (uniform) or sigmas (normal), e.g. leg=0.01,pos=0.025,ang=0.001"
 
 
 class CommandError(UsageError):
@@ -57,54 +54,6 @@ def load_geometry(spec: str, euler: str | None = None) -> Geometry:
 
     geometry = load(spec)
     return geometry.replace(euler=euler) if euler else geometry
-
-
-def parse_noise(text: str | None, distribution: str = "uniform") -> NoiseModel:
-    """Parse ``leg=0.01,pos=0.025,ang=0.001`` (any subset; others keep the paper's values,
-    said in a warning line naming them: a partial ``--noise`` never fills the rest silently).
-
-    >>> parse_noise("leg=0.02").leg
-    0.02
-    """
-    from hexcal.core import NoiseModel
-
-    keys = {"leg": "leg", "pos": "position", "ang": "orientation"}
-    values: dict[str, float] = {}
-    for item in (text or "").split(","):
-        item = item.strip()
-        if not item:
-            continue
-        key, sep, value = item.partition("=")
-        key = key.strip()
-        if not sep or key not in keys:
-            raise CommandError(f"--noise: cannot read {item!r}; write e.g. leg=0.01,pos=0.025,ang=0.001")
-        if keys[key] in values:
-            raise CommandError(f"--noise: {key} is given twice; give each of leg, pos and ang once")
-        try:
-            number = float(value)
-        except ValueError:
-            raise CommandError(f"--noise: {key}={value!r} is not a number") from None
-        if not math.isfinite(number) or number < 0:
-            raise CommandError(f"--noise: {key} must be a finite value >= 0, got {value}")
-        values[keys[key]] = number
-    try:
-        model = NoiseModel(distribution=distribution, **values)
-    except ValueError as exc:
-        raise CommandError(f"--noise: {exc}") from None
-    if values and len(values) < len(keys):
-        import warnings
-
-        from hexcal.errors import HexcalWarning
-
-        short = {v: k for k, v in keys.items()}
-        rest = [f"{short[name]}={getattr(model, name):g}" for name in keys.values() if name not in values]
-        warnings.warn(
-            f"--noise gives only {', '.join(short[n] for n in values)}: {', '.join(rest)} "
-            "(the seed paper's values) for the rest",
-            HexcalWarning,
-            stacklevel=2,
-        )
-    return model
 
 
 #: ``--delimiter`` values and the characters they stand for.
@@ -155,43 +104,6 @@ def table_reading(args: argparse.Namespace) -> dict[str, Any]:
     }
 
 
-def noise_options(p: argparse.ArgumentParser) -> None:
-    """Add ``--noise``, ``--noise-dist`` and ``--pose-covariance`` to a subcommand."""
-    p.add_argument(
-        "--noise",
-        help="measurement noise: leg=MM,pos=MM,ang=RAD (default the seed paper's "
-        "leg=0.01,pos=0.025,ang=0.001)",
-    )
-    p.add_argument(
-        "--noise-dist",
-        choices=("uniform", "normal"),
-        default="uniform",
-        help="uniform: the values are half-widths a (σ = a/√3); normal: they are σ",
-    )
-    p.add_argument(
-        "--pose-covariance",
-        metavar="FILE",
-        help="full 6x6 pose covariance (mm², mm·rad, rad²; 6 rows of 6 numbers), replacing pos and ang",
-    )
-
-
-def noise_from_args(args: argparse.Namespace) -> NoiseModel:
-    """The noise model of ``--noise``, ``--noise-dist`` and ``--pose-covariance``."""
-    noise = parse_noise(args.noise, args.noise_dist)
-    path = getattr(args, "pose_covariance", None)
-    if path:
-        from hexcal.core import NoiseModel
-        from hexcal.io import read_matrix
-
-        try:
-            noise = NoiseModel(
-                leg=noise.leg, distribution=noise.distribution, pose_covariance=read_matrix(path, (6, 6))
-            )
-        except ValueError as exc:
-            raise CommandError(f"{path}: {exc}") from None
-    return noise
-
-
 def choice(value: str, allowed: Sequence[str], option: str) -> str:
     """``value`` if it is one of ``allowed``, else a :class:`CommandError` naming ``option``.
 
@@ -203,14 +115,32 @@ def choice(value: str, allowed: Sequence[str], option: str) -> str:
     return value
 
 
-def fit_mask(fit: str, fix: Sequence[str] = (), option: str | None = "--fit") -> Any:
-    """The parameter mask (48,) of ``--fit`` groups and ``--fix`` names."""
+def fit_mask(fit: str, fix: Sequence[str] = (), option: str | None = "--fit", geometry: Any = None) -> Any:
+    """The parameter mask of ``--fit`` groups and ``--fix`` names: over the 48 linear-leg
+    parameters, or over ``geometry``'s machine parameters when its leg model has terms of its
+    own (their group, e.g. ``stroke``, added to the fit as ``identify`` adds it)."""
     from hexcal.core import select_parameters
 
     try:
+        if geometry is not None and geometry.leg_model.terms:
+            import numpy as np
+
+            from hexcal.calibration.leg_model_choice import fit_for
+
+            return np.asarray(geometry.machine_parameters(fit_for(fit, geometry.leg_model), fix).vary)
         return select_parameters(fit, fix)
     except ValueError as exc:
         raise CommandError(f"{option}: {exc}" if option else str(exc)) from None
+
+
+def fitted_groups(fit: str, geometry: Any) -> str:
+    """``--fit`` with the group of the geometry's leg model added when it has terms (as
+    :func:`fit_mask` and ``identify`` add it), for headings."""
+    if not geometry.leg_model.terms:
+        return fit
+    from hexcal.calibration.leg_model_choice import fit_for
+
+    return str(fit_for(fit, geometry.leg_model))
 
 
 def int_list(text: str, option: str) -> list[int]:

@@ -22,7 +22,6 @@ from typing import TYPE_CHECKING, Any
 from hexcal.cli.common import (
     EULER_HELP,
     GEOMETRY_HELP,
-    NOISE_HELP,
     CommandError,
     candidate_files,
     candidate_spec,
@@ -30,14 +29,15 @@ from hexcal.cli.common import (
     choice,
     feasible_candidates,
     fit_mask,
+    fitted_groups,
     id_list,
     load_geometry,
-    parse_noise,
     show_defaults,
     table_options,
     table_reading,
     warn,
 )
+from hexcal.cli.noise import NOISE_HELP, parse_noise
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -167,7 +167,7 @@ def cmd_observability(args: argparse.Namespace) -> None:
     instrument = load_instrument(args.setup, geometry.euler)
     scaling = choice(args.scaling, SCALINGS, "--scaling")
     method = choice(args.method, ("ml", "length", "paper"), "--method")
-    mask = fit_mask(args.fit)
+    mask = fit_mask(args.fit, geometry=geometry)
     noise = _noise(args)
     poses, ids = read_poses(args.poses, geometry.euler, **table_reading(args))
     if args.test_poses:
@@ -187,7 +187,7 @@ def cmd_observability(args: argparse.Namespace) -> None:
         bad = [ids[k] for k in np.flatnonzero(~report.feasible)]
         warn(f"hexcal: warning: {args.poses}: {report.summary()} (ids {id_list(bad)})")
     data = analysis.to_dict()
-    print(render("observability", data, fit=args.fit))
+    print(render("observability", data, fit=fitted_groups(args.fit, geometry)))
     if args.json:
         with atomic_write(args.json) as fh:
             fh.write(render("observability", data, "json"))
@@ -238,7 +238,7 @@ def cmd_select(args: argparse.Namespace) -> None:
     instrument = load_instrument(args.setup, geometry.euler)
     criterion = choice(args.criterion, CRITERIA, "--criterion")
     strategy = choice(args.strategy, ("optimal", "paper"), "--strategy")
-    mask = fit_mask(args.fit)
+    mask = fit_mask(args.fit, geometry=geometry)
     noise = _noise(args)
     n = args.n
     candidates = kept = warning = None

@@ -20,12 +20,10 @@ from hexcal.cli.common import (
     check_trials,
     int_list,
     load_geometry,
-    noise_from_args,
-    noise_options,
     output_folder,
-    parse_noise,
     show_defaults,
 )
+from hexcal.cli.noise import noise_from_args, noise_options, parse_noise
 
 
 def _names(text: str, known: list[str], option: str) -> list[str]:

@@ -24,8 +24,8 @@ from hexcal.cli.common import (
     int_list,
     load_geometry,
     output_folder,
-    parse_noise,
 )
+from hexcal.cli.noise import parse_noise
 
 #: Help of the ``--scheduler`` option.
 SCHEDULER_HELP = (

@@ -109,6 +109,12 @@ class LegModel:
         """The leg (0-based) of each block parameter, shape ``(size,)``."""
         return np.tile(np.arange(N_LEGS), self.per_leg)
 
+    def stroke_range(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """Each leg's reading range ``(low, high)`` over which the model's own terms are
+        defined (a curve of the stroke), or ``None`` when they hold everywhere (linear legs):
+        planning says how much of it a pose set covers."""
+        return None
+
     def term_scales(self) -> NDArray[np.float64]:
         """Solver scales of the extra terms, one per term (default 1 mm)."""
         return np.ones(len(self.terms))

@@ -117,6 +117,9 @@ class StrokeLegs(LegModel):
         curve = np.einsum("...k,...k->...", theta[..., 2:], d[..., 2:]) * 2 / (self.high - self.low)
         return theta[..., 1] + curve
 
+    def stroke_range(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return self.low.copy(), self.high.copy()
+
     def term_scales(self) -> NDArray[np.float64]:
         return np.ones(len(self.terms))  # |P_k| <= 1: a term moves its leg by at most its value (mm)
 

@@ -22,6 +22,7 @@ from hexcal.core import PARAMETER_SCALE, Geometry, NoiseModel, as_poses, paramet
 from hexcal.design.accuracy import least_squares_covariance, length_mean_abs
 from hexcal.design.identifiability import as_mask, format_combination, null_space, planning_jacobian
 from hexcal.design.indices import SCALINGS, ObservabilityIndices, observability_indices
+from hexcal.design.stroke_coverage import StrokeCoverage, stroke_coverage
 from hexcal.estimation import cramer_rao_covariance, whitened_jacobian
 from hexcal.instruments.base import MeasurementModel
 
@@ -60,6 +61,9 @@ class PoseSetAnalysis:
         those beyond them, the σ of the gauge-fixed parameters).
     n_machine : int, optional
         Machine parameters among :attr:`names` (the rest are the instrument's).
+    stroke : StrokeCoverage, optional
+        For a leg model with a curve of the stroke: how much of each leg's stroke the poses'
+        readings cover (:func:`hexcal.design.stroke_coverage.stroke_coverage`).
     """
 
     names: tuple[str, ...]
@@ -79,6 +83,7 @@ class PoseSetAnalysis:
     instrument: str = "full pose in the base frame"
     gauges: tuple[str, ...] = ()
     n_machine: int | None = None
+    stroke: StrokeCoverage | None = None
 
     @property
     def rank(self) -> int:
@@ -128,6 +133,8 @@ class PoseSetAnalysis:
             "joint_bound_max_mm": float(np.max(self.std_bound[joints])) if joints else None,
             "l0_bound_mm": float(np.median(self.std_bound[l0])) if l0 else None,
         }
+        if self.stroke is not None:
+            out["stroke_coverage"] = self.stroke.to_dict()
         pos, rot = self.test_position_rms, self.test_orientation_rms
         if pos.size:
             out["test_poses"] = {
@@ -202,9 +209,14 @@ def analyse_poses(
     >>> analyse_poses(machine, flat).rank
     24
     """
+    from hexcal.design.instrument_table import planned_instrument
+
     noise = NoiseModel() if noise is None else noise
-    if instrument is not None and not instrument.determines_pose:
-        return analyse_instrument(geometry, instrument, poses, noise, mask, test_poses, method, scaling, fix)
+    through_problem = planned_instrument(geometry, instrument)
+    if through_problem is not None:
+        return analyse_instrument(
+            geometry, through_problem, poses, noise, mask, test_poses, method, scaling, fix
+        )
     mask = as_mask(mask)
     poses = as_poses(poses).reshape(-1, 6)
     names = parameter_names(mask)
@@ -273,18 +285,20 @@ def analyse_instrument(
     target, or poses that never rotate, show as a lost rank and infinite σ.
     """
     from hexcal.core.linalg import null_space as null_rows
-    from hexcal.design.instrument_table import plan_problem
+    from hexcal.design.instrument_table import default_flags, plan_problem
     from hexcal.errors import UsageError
     from hexcal.estimation import complement_basis, gauge_fixed_covariance, gauge_freedoms, projected_jacobian
     from hexcal.estimation import unidentifiable as lost_beyond
 
     if method != "ml":
-        raise UsageError(
-            f"method {method!r}: the {instrument.describe()} does not give the platform pose; only the "
-            "maximum-likelihood estimate (ml) applies"
+        why = (
+            f"the {geometry.leg_model.name} leg model is planned for its maximum-likelihood estimate only"
+            if instrument.determines_pose
+            else f"the {instrument.describe()} does not give the platform pose"
         )
+        raise UsageError(f"method {method!r}: {why}; only the maximum-likelihood estimate (ml) applies")
     machine = np.asarray(as_mask(mask), dtype=bool)
-    flags = np.asarray(geometry.machine_parameters().vary) if mask is None else machine
+    flags = default_flags(geometry) if mask is None else machine
     problem = plan_problem(geometry, instrument, poses, fix=fix, mask=flags)
     jac = projected_jacobian(problem, noise)
     gauge = gauge_freedoms(problem, problem.full0)
@@ -341,4 +355,5 @@ def analyse_instrument(
         instrument=instrument.describe(),
         gauges=gauge.labels,
         n_machine=int(rows.sum()),
+        stroke=stroke_coverage(geometry, poses),
     )

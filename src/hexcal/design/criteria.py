@@ -66,10 +66,13 @@ def information_blocks(
     >>> information_blocks(machine, workspace_corners(machine)).shape
     (64, 6, 42)
     """
-    mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
+    from hexcal.design.instrument_table import planned_instrument
+
     poses = np.asarray(poses, dtype=float).reshape(-1, 6)
-    if instrument is not None and not instrument.determines_pose:
-        return instrument_blocks(geometry, instrument, poses, noise, mask, fix)
+    through_problem = planned_instrument(geometry, instrument)
+    if through_problem is not None:
+        return instrument_blocks(geometry, through_problem, poses, noise, mask, fix)
+    mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
     wa = whitened_jacobian(geometry, poses, noise, mask)
     return wa.reshape(poses.shape[0], 6, -1) * PARAMETER_SCALE[mask]
 

@@ -25,13 +25,37 @@ from hexcal.estimation.gauge import complement_basis, gauge_freedoms, unidentifi
 from hexcal.estimation.problem import Problem
 from hexcal.estimation.uncertainty import gauge_fixed_covariance, planned_session, projected_jacobian
 from hexcal.instruments.base import MeasurementModel
-from hexcal.instruments.pose import ToolModel
+from hexcal.instruments.pose import FullPoseModel, ToolModel
 from hexcal.instruments.setup import Setup
 from hexcal.instruments.targets import TargetModel
 
 #: The frame the table's instrument stands in (any frame gives the same ranks).
 TABLE_FRAME = np.array([2500.0, -800.0, 300.0, 0.1, -0.2, 0.6])
 TABLE_TARGETS = {"t1": [0.0, 0.0, 60.0], "t2": [150.0, 20.0, 55.0], "t3": [-40.0, 160.0, 70.0]}
+
+
+def planned_instrument(geometry: Geometry, instrument: MeasurementModel | None) -> MeasurementModel | None:
+    """The instrument to plan for through the identification :class:`Problem`, or ``None``
+    where the classical analysis of the 48 linear-leg parameters from a full pose applies.
+
+    The Problem serves every instrument and leg model; the classical pose-set analysis (the
+    leg-length Jacobian, the least-squares estimators ``length`` and ``paper``) knows only a
+    full pose and linear legs. A leg model with terms of its own (``stroke``) therefore plans
+    through the Problem too, with the full pose in the base frame when no setup is given.
+    """
+    if instrument is not None and not instrument.determines_pose:
+        return instrument
+    if geometry.leg_model.terms:
+        return instrument if instrument is not None else FullPoseModel()
+    return None
+
+
+def default_flags(geometry: Geometry) -> np.ndarray:
+    """The machine parameters planned for by default: joints and ``l0``, and the leg model's own
+    terms when it has them (as ``identify`` fits them)."""
+    from hexcal.calibration.leg_model_choice import fit_for
+
+    return np.asarray(geometry.machine_parameters(fit_for(None, geometry.leg_model)).vary, dtype=bool)
 
 
 def plan_problem(
@@ -46,6 +70,8 @@ def plan_problem(
     start: ranks and isotropic bounds do not depend on where the instrument stands)."""
     if instrument.unregistered:
         instrument = instrument.with_values(instrument.parameters().values)
+    if mask is None and fit is None:
+        mask = default_flags(geometry)
     return Problem(geometry, planned_session(geometry, instrument, poses), mask=mask, fit=fit, fix=fix)
 
 

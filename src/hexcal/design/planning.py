@@ -128,7 +128,9 @@ def predicted_error(
     from hexcal.estimation import cramer_rao_covariance
 
     sets = np.asarray(pose_sets, dtype=float)
-    if instrument is not None and not instrument.determines_pose:
+    from hexcal.design.instrument_table import planned_instrument
+
+    if planned_instrument(geometry, instrument) is not None:
         errors = [
             analyse_poses(
                 geometry, s, noise, mask, method="ml", weighted=True, instrument=instrument, fix=fix
@@ -153,6 +155,7 @@ class StrategyComparison:
     n: int
     rows: dict[str, tuple[float, float]]
     descriptions: dict[str, str] = field(default_factory=dict)
+    stroke: dict[str, Any] | None = None
 
     @property
     def gain(self) -> float | None:
@@ -173,7 +176,7 @@ class StrategyComparison:
             },
             "comparisons": dict(self.descriptions),
             "method": "ml",
-        }
+        } | ({"stroke_coverage": self.stroke} if self.stroke is not None else {})
 
 
 def compare_strategies(
@@ -227,7 +230,9 @@ def compare_strategies(
     poses = np.asarray(poses, dtype=float)
     n = len(poses)
     rng = np.random.default_rng(rng)
-    quiet = instrument is not None and not instrument.determines_pose
+    from hexcal.design.instrument_table import planned_instrument
+
+    quiet = planned_instrument(geometry, instrument) is not None
     options = {"method": "ml", "weighted": True, "instrument": instrument, "fix": fix} if quiet else {}
     analysis = analyse_poses(geometry, poses, noise, mask, **options)
     if analysis.unidentifiable:
@@ -248,7 +253,8 @@ def compare_strategies(
         interior = random_interior(geometry.workspace, draws * n, rng).reshape(-1, n, 6)
         rows["interior"] = predicted_error(geometry, interior, noise, mask, instrument, fix)
         descriptions["interior"] = f"{n} random interior poses, mean of {draws} draws"
-    return StrategyComparison(n, rows, descriptions)
+    stroke = analysis.stroke.to_dict() if analysis.stroke is not None else None
+    return StrategyComparison(n, rows, descriptions, stroke)
 
 
 @dataclass
@@ -345,8 +351,9 @@ def plan_selection(
     import time
 
     from hexcal.core.machine import leg_columns
+    from hexcal.design.instrument_table import default_flags
 
-    flags = np.asarray(geometry.machine_parameters().vary if mask is None else mask, dtype=bool)
+    flags = default_flags(geometry) if mask is None else np.asarray(mask, dtype=bool)
     per_leg = int(np.max(flags[leg_columns(geometry.leg_model)].sum(axis=1)))
     if n < per_leg:
         raise SelectionError(f"{n} poses: at least {per_leg} are needed to identify the parameters")

@@ -79,6 +79,7 @@ def observability_text(data: dict[str, Any], fit: str = "joints,l0") -> str:
         cells.append(cell)
     for start in range(0, len(cells), 6):
         lines.append("  " + "  ".join(cells[start : start + 6]))
+    lines += stroke_lines(data.get("stroke_coverage"))
     test = data.get("test_poses")
     if test:
         mean_rot, max_rot = test["orientation_rms_mean_rad"], test["orientation_rms_max_rad"]
@@ -90,6 +91,17 @@ def observability_text(data: dict[str, Any], fit: str = "joints,l0") -> str:
             f"max {_fmt(None if max_rot is None else max_rot * 1e3, 'mrad')}"
         )
     return "\n".join(lines)
+
+
+def stroke_lines(coverage: dict[str, Any] | None) -> list[str]:
+    """The stroke coverage of a pose set (a leg model with a curve of the stroke): the share
+    of each leg's stroke its readings cover, and the findings (poorly covered legs)."""
+    if not coverage:
+        return []
+    shares = "  ".join(f"leg {k + 1} {c:.0%}" for k, c in enumerate(coverage["covered"]))
+    lines = [f"Stroke covered by the poses' readings (the stroke terms are determined there): {shares}"]
+    lines += [f"  warning: {finding}" for finding in coverage["findings"]]
+    return lines
 
 
 #: Keys of the ``hexcal select --json`` file, in order.
@@ -110,8 +122,10 @@ SELECT_JSON_KEYS = (
 
 
 def select_json(data: dict[str, Any]) -> dict[str, Any]:
-    """The ``hexcal select --json`` file: the keys :data:`SELECT_JSON_KEYS` of ``data``."""
-    return {key: data[key] for key in SELECT_JSON_KEYS}
+    """The ``hexcal select --json`` file: the keys :data:`SELECT_JSON_KEYS` of ``data``, and
+    ``stroke_coverage`` for a leg model with a curve of the stroke."""
+    extra = {"stroke_coverage": data["stroke_coverage"]} if data.get("stroke_coverage") else {}
+    return {key: data[key] for key in SELECT_JSON_KEYS} | extra
 
 
 def select_text(data: dict[str, Any]) -> str:
@@ -142,6 +156,7 @@ def select_text(data: dict[str, Any]) -> str:
         gain = 1 - selected["estimator"] / rows["paper"]["estimator"]
         word = "lower" if gain >= 0 else "higher"
         lines.append(f"  selected vs the paper's strategy: {abs(gain):.0%} {word} predicted error")
+    lines += stroke_lines(data.get("stroke_coverage"))
     return "\n".join(lines)
 
 
