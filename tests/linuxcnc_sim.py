@@ -56,7 +56,7 @@ DRIVER = textwrap.dedent(
     #!/usr/bin/python3
     """hexcal test driver: home, then per batch load a kins HAL file and MDI the poses."""
     import json, os, subprocess, sys, time, traceback
-    import linuxcnc
+    import hal, linuxcnc
 
     job = json.load(open(os.environ["HEXCAL_LCNC_JOB"]))
     out = {"batches": [], "error": None}
@@ -90,7 +90,10 @@ DRIVER = textwrap.dedent(
         c.wait_complete(TIMEOUT)
         wait("task mode %d" % m, lambda: s.task_mode == m)
 
+    probe = None
     try:
+        probe = hal.component("hexcal-probe")  # hal.get_value needs a component of its own
+        probe.ready()
         wait("task to start", lambda: s.task_state != 0)
         c.state(linuxcnc.STATE_ESTOP_RESET)
         c.wait_complete(TIMEOUT)
@@ -119,7 +122,10 @@ DRIVER = textwrap.dedent(
                 s.poll()
                 rows.append({"joints": list(s.joint_actual_position[:6]),
                              "joints_cmd": list(s.joint_position[:6]),
-                             "position": list(s.position[:6])})
+                             "position": list(s.position[:6]),
+                             "motor_cmd": [hal.get_value("joint.%d.motor-pos-cmd" % n) for n in range(6)],
+                             "comp": [hal.get_value("joint.%d.backlash-filt" % n) for n in range(6)],
+                             "comp_target": [hal.get_value("joint.%d.backlash-corr" % n) for n in range(6)]})
             out["batches"].append(rows)
     except Exception:
         out["error"] = traceback.format_exc()
@@ -130,6 +136,8 @@ DRIVER = textwrap.dedent(
             c.state(linuxcnc.STATE_ESTOP)
         except Exception:
             pass
+        if probe is not None:
+            probe.exit()
     '''
 )
 
@@ -154,6 +162,7 @@ def _config(joints_ini: dict[str, str], first_hal: str, workdir: Path) -> str:
                 HOME_SEQUENCE = 0
                 """
             )
+            + joints_ini.get(f"EXTRA_{n}", "")
         )
     axes = []
     for axis in "XYZABC":
@@ -265,8 +274,15 @@ def run(
     joints_ini: dict[str, str],
     timeout: float = 60.0,
     wait_timeout: float = 10.0,
+    files: dict[str, str] | None = None,
 ) -> dict[str, Any]:
     """Run LinuxCNC once over ``batches`` of ``(kins HAL text, poses X Y Z A B C)``.
+
+    ``joints_ini`` may add lines to a joint's section (``EXTRA_N``, e.g. its ``COMP_FILE``),
+    and ``files`` are written into the configuration's folder beside the INI (the tables).
+    Each pose's row also has the joints' ``motor_cmd`` (``joint.N.motor-pos-cmd``), the
+    compensation applied (``comp``, ``joint.N.backlash-filt``) and its target (``comp_target``,
+    ``joint.N.backlash-corr``).
 
     Returns the driver's result: ``{"batches": [[{"joints", "joints_cmd", "position"}, ...]],
     "seconds": wall time}``. Raises :class:`LinuxCNCRunError` when the run fails.
@@ -282,6 +298,8 @@ def run(
     driver.write_text(DRIVER)
     driver.chmod(0o755)
     (workdir / "machine.hal").write_text(MACHINE_HAL)
+    for name, text in (files or {}).items():
+        (workdir / name).write_text(text)
     (workdir / "sim.tbl").write_text("T1 P1 Z0 ;\n")
     (workdir / "sim.var").write_text("")
     ini = workdir / "hexapod.ini"

@@ -24,6 +24,8 @@ from hexcal.cli.common import GEOMETRY_HELP, CommandError
 #: ``HAL_FILE`` and ``INI_FILE``, spelled here so that the parser needs no numpy; a test
 #: checks that they agree).
 EXPORT_FILES = ("hexcal-kins.hal", "hexcal-joints.ini")
+#: The joint compensation tables of a stroke leg model (``hexcal.io.linuxcnc_comp.COMP_FILES``).
+COMP_FILES = tuple(f"hexcal-comp-{n}.tbl" for n in range(6))
 
 
 def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
@@ -32,20 +34,27 @@ def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
     p.add_argument("target", choices=("linuxcnc",), help="controller format")
     p.add_argument("--geometry", required=True, help=f"(calibrated) {geometry_help}")
     p.add_argument(
-        "--out", required=True, help="folder for hexcal-kins.hal and hexcal-joints.ini (created if missing)"
+        "--out",
+        required=True,
+        help="folder for hexcal-kins.hal and hexcal-joints.ini, and hexcal-comp-0..5.tbl for a stroke "
+        "leg model (created if missing)",
     )
     p.set_defaults(
         func=cmd_export,
         inputs=("geometry",),
         outputs=(),
         folders=("out",),
-        folder_files={"out": EXPORT_FILES},
+        folder_files={"out": EXPORT_FILES + COMP_FILES},
     )
 
     p = sub.add_parser("import", help="a geometry from a controller's configuration (LinuxCNC genhexkins)")
     p.add_argument("target", choices=("linuxcnc",), help="controller format")
     p.add_argument("--hal", required=True, help="HAL file with the 'setp genhexkins...' lines")
-    p.add_argument("--ini", help="the machine's INI file (units, HOME_OFFSET, limits, [TRAJ] HOME)")
+    p.add_argument(
+        "--ini",
+        help="the machine's INI file (units, HOME_OFFSET, limits, [TRAJ] HOME; its joints' COMP_FILE "
+        "tables, read from the INI's folder, become a stroke leg model)",
+    )
     p.add_argument(
         "--home",
         metavar="X,Y,Z,A,B,C",
@@ -107,6 +116,11 @@ def cmd_export(args: argparse.Namespace) -> None:
         _warn(warning)
     print(f"wrote {', '.join(str(folder / name) for name in files)}")
     print("paste: [HAL] HALFILE = hexcal-kins.hal; the [TRAJ], [JOINT_N], [AXIS_*] keys of hexcal-joints.ini")
+    if COMP_FILES[0] in files:
+        print(
+            f"copy {COMP_FILES[0]} .. {COMP_FILES[-1]} into the machine's configuration folder (the joints' "
+            "COMP_FILE tables of the stroke leg model)"
+        )
 
 
 def _parse_home(text: str) -> list[float]:
@@ -131,8 +145,21 @@ def cmd_import(args: argparse.Namespace) -> None:
     hal_text = _read_text(args.hal, "HAL")
     ini_text = _read_text(args.ini, "INI") if args.ini else None
     home = _parse_home(args.home) if args.home else None
+
+    def comp_reader(value: str) -> str:  # a COMP_FILE beside the INI, as LinuxCNC opens it
+        path = Path(args.ini).parent / value
+        if path.resolve() == out.resolve():
+            raise CommandError(f"--out {out}: it is the compensation table {path} that the INI names")
+        return _read_text(str(path), "compensation table")
+
     geometry, warnings = import_linuxcnc(
-        hal_text, ini_text, hal_name=args.hal, ini_name=args.ini or "INI file", home_pose=home, name=args.name
+        hal_text,
+        ini_text,
+        hal_name=args.hal,
+        ini_name=args.ini or "INI file",
+        home_pose=home,
+        name=args.name,
+        comp_reader=comp_reader,
     )
     try:  # the rules of every geometry hexcal reads: never write one it would refuse to load
         geometry.check_plausible()

@@ -95,8 +95,13 @@ MAX_VALUE_CHARS = 80
 
 _HAL_LINE = re.compile(r"setp genhexkins\.(base|platform)\.[0-5]\.[xyz] (?P<v>\S+)")
 _INI_SECTION = re.compile(r"\[(TRAJ|JOINT_[0-5]|AXIS_[XYZABC])\]")
-_INI_WORDS = {"LINEAR_UNITS = mm", "ANGULAR_UNITS = degree"}
-_INI_KEY = re.compile(r"(HOME|HOME_OFFSET|MIN_LIMIT|MAX_LIMIT|HEXCAL_LEG_GAIN) = (?P<v>\S+( \S+)*)")
+_INI_WORDS = {"LINEAR_UNITS = mm", "ANGULAR_UNITS = degree", "COMP_FILE_TYPE = 1"} | {
+    f"COMP_FILE = hexcal-comp-{n}.tbl" for n in range(6)
+}
+_INI_KEY = re.compile(
+    r"(HOME|HOME_OFFSET|MIN_LIMIT|MAX_LIMIT|HEXCAL_LEG_GAIN|HEXCAL_STROKE|HEXCAL_STROKE_DEGREE)"
+    r" = (?P<v>\S+( \S+)*)"
+)
 
 
 def printable(value: object, most: int = MAX_VALUE_CHARS) -> str:
@@ -239,14 +244,22 @@ def export_linuxcnc(
     ``HOME`` (strut length at the home pose), ``MIN_LIMIT``/``MAX_LIMIT`` (leg length
     limits) and ``HEXCAL_LEG_GAIN = g`` (the joint's position scale, counts per mm, is
     to be divided by ``g``); ``[TRAJ] HOME`` is the home pose and ``[AXIS_*]`` limits
-    the workspace box, in LinuxCNC's ``X Y Z A B C``. Only linear legs can be exported
-    (``genhexkins`` struts are ``l0 + g dl``): a leg model with terms of its own is refused
-    rather than written without them.
+    the workspace box, in LinuxCNC's ``X Y Z A B C``. A leg model with a curve of the stroke
+    (``stroke``) adds, per joint, a compensation table (``COMP_FILE``, ``COMP_FILE_TYPE = 1``:
+    :mod:`hexcal.io.linuxcnc_comp`), returned as ``hexcal-comp-N.tbl``, and its
+    ``HOME_OFFSET`` is the model's length at reading 0; a leg model with terms but no stroke is
+    refused rather than written without them.
     """
-    if geometry.leg_model.terms or geometry.leg_model.settings():
+    tables = None
+    if geometry.leg_model.stroke_range() is not None:
+        from hexcal.io.linuxcnc_comp import comp_tables
+
+        tables = comp_tables(geometry)
+    elif geometry.leg_model.terms or geometry.leg_model.settings():
         raise InputError(
-            f"{source}: the legs follow the {geometry.leg_model.name} model, and genhexkins struts are "
-            "linear (l0 + g dl): its terms would be lost, so nothing is exported"
+            f"{source}: the legs follow the {geometry.leg_model.name} model, which has no stroke to "
+            "tabulate, and genhexkins struts are linear (l0 + g dl): its terms would be lost, so nothing "
+            "is exported"
         )
     hal = _header(geometry, HAL_FILE, source, source_sha256, source_date)
     hal += [
@@ -289,12 +302,15 @@ def export_linuxcnc(
         ]
         home_lengths = inverse_kinematics(geometry, home)
     ini.append("")
+    from hexcal.core.kinematics import leg_lengths
+
+    at_switch = leg_lengths(geometry, np.zeros(6))  # l0 for linear legs
     for n in range(6):
         ini += [
             f"[JOINT_{n}]",
             f"# hexcal leg {n + 1}. HOME_OFFSET: strut length at reading dl = 0 (l0), mm; the joint",
             "# position the home switch sets",
-            f"HOME_OFFSET = {_num(geometry.initial_leg_lengths[n])}",
+            f"HOME_OFFSET = {_num(at_switch[n])}",
         ]
         if home_lengths is not None:
             ini += [
@@ -312,8 +328,10 @@ def export_linuxcnc(
             "# leg gain g, mm of strut per mm of reading. Scale correction: divide this joint's",
             "# position scale (counts per mm: stepgen/encoder SCALE, INPUT_SCALE, OUTPUT_SCALE) by g",
             f"HEXCAL_LEG_GAIN = {_num(geometry.leg_gains[n])}",
-            "",
         ]
+        if tables is not None:
+            ini += _comp_lines(geometry, n, tables[n])
+        ini.append("")
     if geometry.workspace is not None:
         box = geometry.workspace
         for k, axis in enumerate("XYZ"):
@@ -343,7 +361,30 @@ def export_linuxcnc(
     files = {HAL_FILE: "\n".join(hal).rstrip("\n") + "\n", INI_FILE: "\n".join(ini).rstrip("\n") + "\n"}
     for file_name, text in files.items():
         check_export_lines(file_name, text)
+    if tables is not None:
+        from hexcal.io.linuxcnc_comp import COMP_FILES, format_comp_table
+
+        files |= {COMP_FILES[n]: format_comp_table(table) for n, table in enumerate(tables)}
     return files
+
+
+def _comp_lines(geometry: Geometry, n: int, table: object) -> list[str]:
+    """The ``[JOINT_N]`` keys of a stroke model's compensation table (numbers and fixed text)."""
+    from hexcal.io.linuxcnc_comp import COMP_FILES
+
+    model = geometry.leg_model
+    low, high = model.stroke_range()  # type: ignore[misc]
+    return [
+        f"# stroke leg model of degree {int(model.settings()[0])}: the strut's length is not linear in its",
+        "# reading. LinuxCNC adds the trim of this table (strut length mm -> trim mm, interpolated,",
+        f"# {len(table.nominal)} entries, within {table.max_error:.2g} mm) to the joint position; keep the",  # type: ignore[attr-defined]
+        "# file beside the machine's INI file (LinuxCNC opens it from the configuration's folder)",
+        f"COMP_FILE = {COMP_FILES[n]}",
+        "COMP_FILE_TYPE = 1",
+        "# the stroke (readings) and degree the table was made from, for `hexcal import linuxcnc`",
+        f"HEXCAL_STROKE = {_num(low[n])} {_num(high[n])}",
+        f"HEXCAL_STROKE_DEGREE = {int(model.settings()[0])}",
+    ]
 
 
 def euler_warning(geometry: Geometry) -> str | None:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -203,6 +203,7 @@ def import_linuxcnc(
     ini_name: str = "INI file",
     home_pose: ArrayLike | None = None,
     name: str | None = None,
+    comp_reader: Callable[[str], str] | None = None,
 ) -> tuple[Geometry, list[str]]:
     """A hexcal geometry from a LinuxCNC ``genhexkins`` configuration.
 
@@ -222,6 +223,9 @@ def import_linuxcnc(
         distance of the base joints from the Z axis (struts at about 45 degrees).
     name : str, optional
         Geometry name (default: the INI's ``[EMC] MACHINE``, else ``linuxcnc``).
+    comp_reader : callable, optional
+        The text of a ``[JOINT_N] COMP_FILE`` value (its file beside the INI): the joints'
+        compensation tables become a stroke leg model (:mod:`hexcal.io.linuxcnc_comp`).
 
     Returns
     -------
@@ -406,4 +410,8 @@ def import_linuxcnc(
         workspace=workspace,
         name=name,
     )
+    if ini is not None:  # joint compensation tables: a stroke leg model (hexcal.io.linuxcnc_comp)
+        from hexcal.io.linuxcnc_comp import import_comp_tables
+
+        geometry = import_comp_tables(geometry, ini, comp_reader, warnings)
     return geometry, warnings

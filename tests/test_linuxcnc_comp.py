@@ -1,0 +1,151 @@
+"""Joint compensation tables of a stroke leg model (``hexcal.io.linuxcnc_comp``), without LinuxCNC.
+
+- the tables are exact at their entries (trim = l0 + g dl - l(dl)) and within their stated
+  interpolation error between them (checked against the model's own inverse), with the home
+  switch (reading 0) inside;
+- ``export linuxcnc`` of a stroke geometry writes six numbers-only tables and the INI keys, and
+  ``import linuxcnc`` reads them back into the same leg model (terms to 1e-9 mm), also from
+  ``COMP_FILE_TYPE = 0`` tables; a linear geometry writes no table;
+- malformed tables (a word, two numbers, decreasing positions, backlash), a joint without a table
+  and an ``--out`` that is a table are refused in one line, nothing written.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hexcal.cli.main import main
+from hexcal.core import preset
+from hexcal.core.kinematics import leg_lengths
+from hexcal.core.stroke_legs import StrokeLegs
+from hexcal.io import load_geometry, save_geometry
+from hexcal.io.linuxcnc import LinuxCNCFormatError
+from hexcal.io.linuxcnc_comp import COMP_FILES, MAX_ENTRIES, comp_tables, parse_comp_table
+
+TERMS = np.random.default_rng(3).uniform(-0.2, 0.2, (6, 3))
+
+
+def stroke_geometry(low: float = 20.0, high: float = 495.0):
+    machine = preset("paper-hmt").replace(euler="xyz", name="stroke")
+    return machine.replace(leg_model=StrokeLegs(4, [low] * 6, [high] * 6), leg_terms=TERMS)
+
+
+def run(capsys, *argv):
+    status = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def test_tables_are_exact_at_entries_and_within_their_error_between():
+    geometry = stroke_geometry()
+    tables = comp_tables(geometry)
+    model, block = geometry.leg_model, geometry.leg_block()
+    for leg, table in enumerate(tables):
+        assert 9 <= len(table.nominal) <= MAX_ENTRIES and np.all(np.diff(table.nominal) > 0)
+        # reading 0 (the home switch) lies inside: the stroke [20, 495] was widened to [0, 495]
+        assert table.nominal[0] == pytest.approx(leg_lengths(geometry, np.zeros(6))[leg], abs=1e-12)
+        lengths = np.linspace(table.nominal[0], table.nominal[-1], 1001)
+        full = np.broadcast_to(lengths[:, None], (1001, 6)).copy()
+        dl = model.readings(block, full)[:, leg]  # the model's inverse
+        exact = geometry.initial_leg_lengths[leg] + geometry.leg_gains[leg] * dl - lengths
+        assert (
+            np.max(np.abs(np.interp(lengths, table.nominal, table.trim) - exact)) <= table.max_error + 1e-12
+        )
+        assert table.max_error <= 1e-3
+
+
+def test_export_and_import_round_trip(capsys, tmp_path):
+    geometry = stroke_geometry()
+    save_geometry(geometry, tmp_path / "g.yaml")
+    status, out, err = run(
+        capsys, "export", "linuxcnc", "--geometry", tmp_path / "g.yaml", "--out", tmp_path / "x"
+    )
+    assert status == 0, err
+    assert "copy hexcal-comp-0.tbl" in out
+    for name in COMP_FILES:
+        text = (tmp_path / "x" / name).read_text()
+        assert all(len(line.split()) == 3 for line in text.splitlines())  # numbers only
+        [float(v) for v in text.split()]
+    ini = (tmp_path / "x" / "hexcal-joints.ini").read_text()
+    assert ini.count("COMP_FILE_TYPE = 1") == 6 and "COMP_FILE = hexcal-comp-5.tbl" in ini
+    status, _, err = run(
+        capsys,
+        "import",
+        "linuxcnc",
+        "--hal",
+        tmp_path / "x" / "hexcal-kins.hal",
+        "--ini",
+        tmp_path / "x" / "hexcal-joints.ini",
+        "--out",
+        tmp_path / "back.yaml",
+    )
+    assert status == 0, err
+    back = load_geometry(tmp_path / "back.yaml")
+    assert back.leg_model == geometry.leg_model
+    np.testing.assert_allclose(back.leg_terms, geometry.leg_terms, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(back.initial_leg_lengths, geometry.initial_leg_lengths, rtol=0, atol=1e-6)
+
+
+def test_type_0_tables_read_as_positions_reached():
+    table = comp_tables(stroke_geometry())[0]
+    positions = table.nominal - table.trim  # type 0: what the joint reached, trim = nominal - it
+    text = "".join(
+        f"{float(n)!r} {float(p)!r} {float(p)!r}\n" for n, p in zip(table.nominal, positions, strict=True)
+    )
+    back = parse_comp_table(text, "t0.tbl", 0)
+    np.testing.assert_allclose(back.trim, table.trim, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("1 2 2\nnominal forward reverse\n", "line 2: not three numbers"),
+        ("1 2\n", "line 1: not three numbers"),
+        ("1 0 0\n1 0 0\n", "line 2: the nominal positions must increase"),
+        ("1 0 0\n2 0.1 -0.1\n", "line 2: forward and reverse differ"),
+        ("1 nan nan\n", "line 1: not three numbers"),
+        ("", "no table entry"),
+    ],
+)
+def test_malformed_tables_are_refused_naming_the_line(text, words):
+    with pytest.raises(LinuxCNCFormatError, match=words):
+        parse_comp_table(text, "bad.tbl", 1)
+
+
+def test_import_refusals_write_nothing(capsys, tmp_path):
+    save_geometry(stroke_geometry(), tmp_path / "g.yaml")
+    assert (
+        run(capsys, "export", "linuxcnc", "--geometry", tmp_path / "g.yaml", "--out", tmp_path / "x")[0] == 0
+    )
+    ini = tmp_path / "x" / "hexcal-joints.ini"
+    hal = tmp_path / "x" / "hexcal-kins.hal"
+    (tmp_path / "x" / "hexcal-comp-3.tbl").write_text("1 0 0\nbroken\n")
+    status, _, err = run(
+        capsys, "import", "linuxcnc", "--hal", hal, "--ini", ini, "--out", tmp_path / "b.yaml"
+    )
+    assert status == 1 and "hexcal-comp-3.tbl: line 2" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "b.yaml").exists()
+    ini.write_text(ini.read_text().replace("COMP_FILE = hexcal-comp-2.tbl\n", ""))
+    status, _, err = run(
+        capsys, "import", "linuxcnc", "--hal", hal, "--ini", ini, "--out", tmp_path / "b.yaml"
+    )
+    assert status == 1 and "joint(s) 2 none" in err
+    status, _, err = run(
+        capsys,
+        "import",
+        "linuxcnc",
+        "--hal",
+        hal,
+        "--ini",
+        ini,
+        "--out",
+        tmp_path / "x" / "hexcal-comp-0.tbl",
+    )
+    assert status != 0 and (tmp_path / "x" / "hexcal-comp-0.tbl").read_text().count("\n") > 5
+
+
+def test_linear_geometry_writes_no_table(capsys, tmp_path):
+    status, _, _ = run(capsys, "export", "linuxcnc", "--geometry", "paper-hmt", "--out", tmp_path / "x")
+    assert status == 0 and "COMP_FILE" not in (tmp_path / "x" / "hexcal-joints.ini").read_text()
+    assert not any((tmp_path / "x" / name).exists() for name in COMP_FILES)
