@@ -30,6 +30,11 @@ class InputError(HexcalError, ValueError):
     """An input file is missing or malformed; the message names file, line and column."""
 
 
+class LinuxCNCFormatError(InputError):
+    """A LinuxCNC HAL, INI or compensation table file cannot be read; the message names the
+    file and the line (``hexcal.io.linuxcnc``)."""
+
+
 class GeometryError(HexcalError, ValueError):
     """A geometry description is invalid (missing key, wrong shape, wrong unit...)."""
 

@@ -45,6 +45,7 @@ from numpy.typing import NDArray
 from hexcal.core.geometry import Geometry
 from hexcal.core.text import printable as _printable
 from hexcal.errors import InputError
+from hexcal.errors import LinuxCNCFormatError as LinuxCNCFormatError  # re-exported: its home before
 
 #: File names written by :func:`export_linuxcnc`.
 HAL_FILE = "hexcal-kins.hal"
@@ -75,10 +76,6 @@ GENHEXKINS_DEFAULT_PLATFORM = np.array(
         [-10.459, -4.884, 0.0],
     ]
 )
-
-
-class LinuxCNCFormatError(InputError):
-    """A HAL or INI file cannot be read; the message names the file and the line."""
 
 
 #: A number as C's ``strtod`` reads it (no hex, inf or nan): the only values written.

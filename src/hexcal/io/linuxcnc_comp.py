@@ -48,7 +48,7 @@ from numpy.typing import NDArray
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.stroke_legs import StrokeLegs, legendre_values
-from hexcal.io.linuxcnc import LinuxCNCFormatError
+from hexcal.errors import LinuxCNCFormatError
 
 #: The per-joint table files ``export linuxcnc`` writes beside the INI (joint ``N`` = leg ``N+1``).
 COMP_FILES = tuple(f"hexcal-comp-{n}.tbl" for n in range(6))
