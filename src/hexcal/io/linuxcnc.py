@@ -305,8 +305,8 @@ def export_linuxcnc(
     for n in range(6):
         ini += [
             f"[JOINT_{n}]",
-            f"# hexcal leg {n + 1}. HOME_OFFSET: strut length at reading dl = 0 (l0), mm; the joint",
-            "# position the home switch sets",
+            f"# hexcal leg {n + 1}. HOME_OFFSET: strut length at reading dl = 0 (l0; with a stroke model",
+            "# l0 plus its curve there), mm; the joint position the home switch sets",
             f"HOME_OFFSET = {_num(at_switch[n])}",
         ]
         if home_lengths is not None:
