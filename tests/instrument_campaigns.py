@@ -238,7 +238,8 @@ class Campaigns:
 
     def data(self, kind: str, variant: str = "clean") -> Path:
         """A campaign of instrument ``kind``: ``clean``, ``held`` (20 held-out poses), ``metres``,
-        ``degrees`` (angles in degrees in radian columns), ``euler`` (angles in ZYX), ``gains``
+        ``degrees`` (angles in degrees in radian columns), ``absolute`` (strut lengths as readings),
+        ``euler`` (angles in ZYX), ``gains``
         (a real machine with leg gain errors), ``flat`` (poses that never rotate) or ``spoiled``
         (one observation 100 σ off)."""
         key = ("data", kind, variant)
@@ -259,6 +260,12 @@ class Campaigns:
             edit_columns(self.data(kind), path, inst.position_columns, lambda v, c: v / 1000)
         elif variant == "degrees":
             edit_columns(self.data(kind), path, ("a", "b", "c"), lambda v, c: math.degrees(v))
+        elif variant == "absolute":  # a controller's joint positions (strut lengths) given as dl
+            from hexcal.core.presets import preset
+
+            l0 = preset("paper-hmt").initial_leg_lengths
+            legs = tuple(f"dl{i}" for i in range(1, 7))
+            edit_columns(self.data(kind), path, legs, lambda v, c: v + float(l0[int(c[2:]) - 1]))
         elif variant == "spoiled":
             sigma = {c: SIGMA["orientation"] if c in "abc" else SIGMA["position"] for c in inst.spoil}
             edit_columns(self.data(kind), path, inst.spoil, lambda v, c: v + 100 * sigma[c], rows={SPOILED})

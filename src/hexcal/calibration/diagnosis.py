@@ -14,6 +14,9 @@ default noise model:
 - **units** (bad fits): each session's data re-read as its instrument suggests (lengths in
   metres or inches, angles in the other unit: :meth:`MeasurementModel.variants`); named
   instead of the gains when it explains the fit better;
+- **absolute readings** (bad fits and failed ones): readings of the size of the legs
+  themselves re-read as ``(dl - l0) / g``: a controller's joint positions (LinuxCNC's
+  genhexkins joints are strut lengths) given instead of readings from the home switch;
 - **Euler sequence** (bad fits that neither explains, instruments that report angles): every
   other scipy Euler sequence, each by a short refit (:data:`SCREEN_NFEV` evaluations), the
   best few in full; says which one fits.
@@ -90,7 +93,9 @@ def diagnose(result: Any, sessions: Sequence[Any], refit: Refit, bad: bool = Tru
     out = _gains(start, names, sessions, refit, base)
     if not bad:
         return out
-    unit = _units(start, names, sessions, refit, base)
+    unit = _absolute_readings(start, names, sessions, refit, base) or _units(
+        start, names, sessions, refit, base
+    )
     if unit is not None:
         # a unit that explains the fit better than the gains do is the cause (gains and l0
         # absorb part of positions in metres)
@@ -110,7 +115,11 @@ def explain_failure(
     sequence) that fits where the data as given do not, or clearly better than every other
     re-reading of its kind; None when no variant explains it."""
     base = refit(start, sessions, names)
-    return _units(start, names, sessions, refit, base) or _euler(start, names, sessions, refit, base)
+    return (
+        _absolute_readings(start, names, sessions, refit, base)
+        or _units(start, names, sessions, refit, base)
+        or _euler(start, names, sessions, refit, base)
+    )
 
 
 def _explains(rms: float, base: Quality, others: Sequence[float]) -> bool:
@@ -172,6 +181,72 @@ def _units(
                     f"to {quality.text()}",
                     {"rms": base.rms, "rms_converted": quality.rms},
                 )
+    return None
+
+
+def absolute_readings(start: Geometry, sessions: Sequence[Any]) -> str | None:
+    """The message for readings that are plainly absolute strut lengths, found before any fit:
+    every reading lies within the machine's leg lengths (its limits, else the lengths over its
+    workspace box or at its home pose, widened by 20 %), while every length the readings would
+    give (``l0 + g dl``) lies beyond them; None otherwise."""
+    from hexcal.core.kinematics import inverse_kinematics, leg_lengths
+    from hexcal.core.workspace import workspace_corners
+
+    if start.leg_length_limits is not None:
+        low, high = (float(v) for v in start.leg_length_limits)
+    elif start.workspace is not None or start.home_pose is not None:
+        poses = workspace_corners(start) if start.workspace is not None else start.home_pose[None]
+        lengths = inverse_kinematics(start, poses)
+        low, high = 0.8 * float(lengths.min()), 1.2 * float(lengths.max())
+    else:
+        return None
+    for session in sessions:
+        readings = getattr(session.data, "readings", None)
+        if readings is None or not np.size(readings):
+            continue
+        given = leg_lengths(start, readings)
+        if np.all((readings >= low) & (readings <= high)) and np.all(given > high):
+            where = f"{session.label}: " if session.label else ""
+            return (
+                f"{where}the leg readings dl ({np.min(readings):.4g} to {np.max(readings):.4g}) look like "
+                f"absolute strut lengths (a controller's joint positions): the legs are {low:.4g} to "
+                f"{high:.4g} mm long, and l0 + g dl would make them {np.min(given):.4g} to "
+                f"{np.max(given):.4g} mm; give readings from the switch, dl = joint position - HOME_OFFSET"
+            )
+    return None
+
+
+def _absolute_readings(
+    start: Geometry, names: tuple[str, ...], sessions: Sequence[Any], refit: Refit, base: Quality
+) -> Reason | None:
+    """Readings that are strut lengths (joint positions) rather than readings from the switch:
+    tried where their medians are of the size of ``l0 / g`` (between half and three times)."""
+    import dataclasses
+
+    l0, gains = start.initial_leg_lengths, start.leg_gains
+    for k, session in enumerate(sessions):
+        readings = getattr(session.data, "readings", None)
+        if readings is None or not dataclasses.is_dataclass(session.data):
+            continue
+        typical = np.abs(l0 / gains)
+        median = np.nanmedian(np.abs(readings), axis=0)
+        if not np.all((median > 0.5 * typical) & (median < 3.0 * typical)):
+            continue
+        variant = list(sessions)
+        variant[k] = session.replace(data=dataclasses.replace(session.data, readings=(readings - l0) / gains))
+        quality = refit(start, variant, names)
+        if not _explains(quality.rms, base, ()):
+            continue
+        where = f"{session.label}: " if session.label else ""
+        before = base.text() if np.isfinite(base.rms) else "a failed fit"
+        return Reason(
+            "absolute-readings",
+            "fail",
+            f"{where}the leg readings dl look like absolute strut lengths (a controller's joint positions), "
+            "not readings from the home switch: read as dl - l0 the residual RMS falls from "
+            f"{before} to {quality.text()}; give readings from the switch, dl = joint position - HOME_OFFSET",
+            {"rms": base.rms, "rms_converted": quality.rms},
+        )
     return None
 
 

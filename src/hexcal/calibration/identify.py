@@ -160,6 +160,9 @@ def estimate(
     IdentificationResult
     """
     given = as_sessions(measurements, model)
+    absolute = diagnosis.absolute_readings(start, given)
+    if absolute is not None:
+        raise InputError(absolute)
     noise = _noise(noise, default_noise)
     auto = isinstance(noise, str)
     estimator = get_estimator(method)
@@ -303,7 +306,7 @@ def _explain_failure(
     cause = diagnosis.explain_failure(problem.start, problem.names, given, _refit(noises))
     text = str(exc) if isinstance(exc, HexcalError) else f"the computation failed numerically ({exc})"
     if cause is not None:
-        raise IdentificationError(f"{text}; likely cause: {cause.message}") from exc
+        raise IdentificationError(f"the fit failed ({text}); likely cause: {cause.message}") from exc
     weak = _weak_combinations(problem, noises, sigma_limit)
     if weak and "combination" not in text:
         raise IdentificationError(f"{text}; {weak}") from exc

@@ -99,9 +99,18 @@ def cmd_fk(args: argparse.Namespace) -> None:
             outside = np.flatnonzero(short | long)
             if outside.size:
                 lo, hi = geometry.leg_length_limits
+                hint = ""
+                if legs.readings is not None:
+                    as_lengths = legs.readings[outside]
+                    if np.all((as_lengths >= lo) & (as_lengths <= hi)):
+                        hint = (
+                            "; these dl are themselves within the limits: absolute strut lengths (a "
+                            "controller's joint positions)? give them as l1..l6, or dl = joint position "
+                            "- HOME_OFFSET"
+                        )
                 raise CommandError(
                     f"{args.legs}: row(s) outside the leg length limits [{lo:g}, {hi:g}] mm "
-                    f"(ids {id_list([legs.ids[k] for k in outside])})"
+                    f"(ids {id_list([legs.ids[k] for k in outside])}){hint}"
                 )
             if guesses is None:
                 # the first Newton step from the home pose, for all rows at once: one 6x6
