@@ -41,3 +41,43 @@ def test_fk_says_readings_look_absolute(campaigns, tmp_path: Path):
     done = run("fk", "--geometry", "paper-hmt", "--legs", data, "--out", tmp_path / "f.csv")
     assert done.code == 1 and "absolute strut lengths" in _one_line(done.err)
     assert not (tmp_path / "f.csv").exists()
+
+
+def _covariance(path: Path, position: float, angle: float) -> Path:
+    import numpy as np
+
+    np.savetxt(path, np.diag([position] * 3 + [angle] * 3))
+    return path
+
+
+@pytest.mark.parametrize("command", ["identify", "simulate"])
+def test_a_pose_covariance_is_refused_for_targets(command, campaigns, tmp_path: Path):
+    cov = _covariance(tmp_path / "cov.txt", 1e-4, 1e-8)
+    if command == "identify":
+        data = campaigns.data("targets")
+        done, files = identify(campaigns, "targets", data, "cov", "--pose-covariance", cov)
+        written = [p for p in files.values() if p.exists()]
+    else:
+        out = tmp_path / "sim"
+        done = run("simulate", "--geometry", "paper-hmt", *campaigns.setup("targets", "true"),
+                   "--pose-covariance", cov, "--trials", 2, "--poses", 20, "--out", out)  # fmt: skip
+        written = [out] if out.exists() else []
+    assert done.code != 0 and not written
+    line = _one_line(done.err)
+    assert "--pose-covariance" in line and "no pose is measured" in line and "--noise pos=" in line
+
+
+def test_a_pose_covariance_acts_for_a_tool(campaigns, tmp_path: Path):
+    import json
+
+    results = []
+    for k, (position, angle) in enumerate([(2.25e-4, 4e-8), (1.0, 4e-8)]):
+        cov = _covariance(tmp_path / f"cov{k}.txt", position, angle)
+        done, files = identify(campaigns, "tool", campaigns.data("tool"), f"cov{k}", "--pose-covariance", cov,
+                               "--force")  # fmt: skip
+        assert done.code == 0, done.err
+        data = json.loads(files["json"].read_text())
+        assert data["noise"]["given"]["pose_covariance"][0][0] == position
+        results.append(data["bound"]["u1.x"])
+    # a position σ of 1 mm instead of 0.015 mm: the bound of a joint coordinate grows many times
+    assert results[1] > 5 * results[0]

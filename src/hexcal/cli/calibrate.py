@@ -14,6 +14,7 @@ through :mod:`hexcal.report`.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from typing import Any
 
 from hexcal.cli.common import (
@@ -41,14 +42,14 @@ SIGMA_LIMIT = 0.2
 MAX_CHANGE = 0.25
 
 
-def identify_noise(args: argparse.Namespace) -> Any:
+def identify_noise(args: argparse.Namespace, sessions: Sequence[Any] = ()) -> Any:
     """``"auto"`` (the noise learned from the data) unless ``--noise``/``--pose-covariance``
-    give a noise model."""
+    give a noise model (a pose covariance only for sessions whose instruments measure a pose)."""
     if (args.noise is None and not args.pose_covariance) or (args.noise or "").strip() == "auto":
         if args.pose_covariance:
             raise CommandError("--pose-covariance gives the noise: do not combine it with --noise auto")
         return "auto"
-    return noise_from_args(args)
+    return noise_from_args(args, [s.instrument for s in sessions])
 
 
 def read_sessions(args: argparse.Namespace, geometry: Any) -> list[Any]:
@@ -114,7 +115,7 @@ def cmd_identify(args: argparse.Namespace) -> None:
     setup_paths = _setup_outputs(args)
     nominal = load_geometry(args.geometry, args.euler)
     sessions = read_sessions(args, nominal)
-    noise = identify_noise(args)
+    noise = identify_noise(args, sessions)
     nominal, fit, choice = _leg_model(args, nominal, sessions, noise)
     # limits relative to the machine: the library's are 1 mm (1e-3 for gains) per unit of scale
     radius = float(np.max(np.linalg.norm(nominal.platform_joints[:, :2], axis=1)))

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 import math
-from typing import TYPE_CHECKING
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 from hexcal.cli.common import CommandError
 
@@ -83,11 +84,19 @@ def noise_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def noise_from_args(args: argparse.Namespace) -> NoiseModel:
-    """The noise model of ``--noise``, ``--noise-dist`` and ``--pose-covariance``."""
+def noise_from_args(args: argparse.Namespace, instruments: Sequence[Any] = ()) -> NoiseModel:
+    """The noise model of ``--noise``, ``--noise-dist`` and ``--pose-covariance``; a pose
+    covariance is refused for an instrument of ``instruments`` that measures no pose (it would
+    not act)."""
     noise = parse_noise(args.noise, args.noise_dist)
     path = getattr(args, "pose_covariance", None)
     if path:
+        for instrument in instruments:
+            if not instrument.uses_pose_covariance():
+                raise CommandError(
+                    f"--pose-covariance: {instrument.describe()}: no pose is measured, so a pose "
+                    "covariance cannot describe the noise; give --noise pos=MM (the σ of each coordinate)"
+                )
         from hexcal.core import NoiseModel
         from hexcal.io import read_matrix
 

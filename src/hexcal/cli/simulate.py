@@ -96,7 +96,7 @@ def cmd_simulate(args: argparse.Namespace) -> None:
         )
     names = _names(args.strategies, [*STRATEGIES, "selected"], "--strategies")
     counts = int_list(args.poses, "--poses")
-    base = noise_from_args(args)
+    base = noise_from_args(args, [instrument])
     strategies = {s: STRATEGIES[s] for s in names if s in STRATEGIES}
     if "selected" in names:
         strategies["selected"] = fixed_strategy(

@@ -149,6 +149,13 @@ class MeasurementModel(ABC):
                 groups.append(name)
         return tuple(groups)
 
+    def uses_pose_covariance(self) -> bool:
+        """Whether a full pose covariance (:attr:`NoiseModel.pose_covariance`) changes this
+        instrument's noise: it does for an instrument that measures a pose, not for targets."""
+        plain = NoiseModel(0.0, 1.0, 1.0, distribution="normal")
+        full = NoiseModel(0.0, 1.0, 1.0, "normal", pose_covariance=np.diag([4.0] * 3 + [9.0] * 3))
+        return not np.array_equal(np.asarray(self.covariance(plain)), np.asarray(self.covariance(full)))
+
     def group_labels(self) -> dict[str, str]:
         """What each noise group is called in reports (``targets`` for target positions)."""
         return {}
