@@ -7,21 +7,26 @@
   ``import linuxcnc`` reads them back into the same leg model (terms to 1e-9 mm), also from
   ``COMP_FILE_TYPE = 0`` tables; a linear geometry writes no table;
 - malformed tables (a word, two numbers, decreasing positions, backlash), a joint without a table
-  and an ``--out`` that is a table are refused in one line, nothing written.
+  and an ``--out`` that is a table are refused in one line, nothing written; any mutation of a
+  table reads or is one clean error (Hypothesis).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from hexcal.cli.main import main
 from hexcal.core import preset
 from hexcal.core.kinematics import leg_lengths
 from hexcal.core.stroke_legs import StrokeLegs
+from hexcal.errors import HexcalError
 from hexcal.io import load_geometry, save_geometry
 from hexcal.io.linuxcnc import LinuxCNCFormatError
 from hexcal.io.linuxcnc_comp import COMP_FILES, MAX_ENTRIES, comp_tables, parse_comp_table
+from test_io_properties import SETTINGS, mutated
 
 TERMS = np.random.default_rng(3).uniform(-0.2, 0.2, (6, 3))
 
@@ -149,3 +154,20 @@ def test_linear_geometry_writes_no_table(capsys, tmp_path):
     status, _, _ = run(capsys, "export", "linuxcnc", "--geometry", "paper-hmt", "--out", tmp_path / "x")
     assert status == 0 and "COMP_FILE" not in (tmp_path / "x" / "hexcal-joints.ini").read_text()
     assert not any((tmp_path / "x" / name).exists() for name in COMP_FILES)
+
+
+_TABLE = "".join(f"{600.0 + 10 * k!r} {0.01 * k!r} {0.01 * k!r}\n" for k in range(12))
+
+
+@SETTINGS
+@given(data=mutated(_TABLE), kind=st.sampled_from([0, 1]))
+def test_any_table_text_reads_or_is_one_clean_error(data, kind):
+    text = data.decode("utf-8", errors="replace")
+    try:
+        table = parse_comp_table(text, "fuzz.tbl", kind)
+    except HexcalError as exc:
+        message = str(exc)
+        assert message.startswith("fuzz.tbl") and "\n" not in message
+        return
+    assert np.all(np.diff(table.nominal) > 0) and np.all(np.isfinite(table.trim))
+    assert 1 <= len(table.nominal) <= MAX_ENTRIES
