@@ -212,16 +212,10 @@ def test_monte_carlo_study_attains_the_bound(case):
     assert abs(row["error_mean"] - row["bound"]) < 5 * row["error_std"] / np.sqrt(trials)
 
 
-def test_planning_sees_what_identification_sees(case, request):
-    """The observability analysis of planned poses (design) has the identification's rank.
-
-    Known limit: design's full-pose path (``analyse_poses`` without an instrument that needs
-    the errors-in-variables analysis) is written for the 48 parameters of linear legs."""
+def test_planning_sees_what_identification_sees(case):
+    """The observability analysis of planned poses (design) has the identification's rank, for
+    every instrument and leg model (a leg model with terms plans through the Problem)."""
     c = case
-    if c.kind == "pose" and c.legs != "linear":
-        request.applymarker(
-            pytest.mark.xfail(reason="design's full-pose path assumes linear legs", strict=True)
-        )
     mask = c.nominal.machine_parameters(FIT[c.legs]).vary
     instrument = c.data[0].instrument
     poses = random_poses(c.nominal, len(c.data[0]), 1)
