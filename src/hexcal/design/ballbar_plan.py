@@ -20,6 +20,7 @@ the workspace after calibration, up to the frames).
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,6 +43,8 @@ PLANES = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
 #: Regularisation of the information (relative to its largest diagonal) while a selection is
 #: still rank-deficient: an undetermined direction then costs ``1 / ridge``.
 RIDGE = 1e-9
+#: What a circle's label says: its plane and its held orientation (level or tilted a,b,c).
+LABEL = re.compile(r"plane (xy|xz|yz), (level|tilted ([^,]+),([^,]+),([^ ]+) deg)")
 
 
 @dataclass(frozen=True)
@@ -93,6 +96,10 @@ class Circles:
             tuple(self.labels[c] for c in chosen),
             self.setup,
         )
+
+    def circle_pivot(self, c: int) -> int:
+        """The pivot of circle ``c``."""
+        return int(self.pivot[c])
 
     def instrument(self, p: int) -> BallbarModel:
         """The ballbar at pivot ``p``."""
@@ -234,11 +241,44 @@ class CircleSelection:
 
 
 def _trace(info: NDArray, proj: NDArray, counted: NDArray, scale: NDArray) -> NDArray:
-    """Batched trace (mm²) of ``P (F + ridge I)⁻¹ Pᵀ`` over the ``counted`` parameters
-    ``(batch, n)`` (the machine's and the setups of the pivots in use)."""
+    """Batched trace (mm²) of ``P (F + ridge I)⁻¹ Pᵀ`` over the ``counted`` parameters (the
+    machine's)."""
     ridge = RIDGE * np.max(np.diagonal(info, axis1=-2, axis2=-1), axis=-1)[..., None, None]
     cov = proj @ np.linalg.inv(info + ridge * np.eye(info.shape[-1])) @ proj.T
-    return np.einsum("...ii,...i->...", cov, counted * scale**2)
+    return np.einsum("...ii,i->...", cov, counted * scale**2)
+
+
+def _starter_kind(label: str) -> tuple[str, str] | None:
+    """``(plane, "level")``, ``("xz", "y")`` or ``("yz", "x")`` (a tilt about an axis in the
+    plane, that axis), else None."""
+    match = LABEL.search(label)
+    if match is None:
+        return None
+    plane, held = match.group(1), match.group(2)
+    if held == "level":
+        return plane, "level"
+    tilt = [float(match.group(k)) != 0 for k in (3, 4, 5)]
+    if plane == "xz" and tilt == [False, True, False]:
+        return plane, "y"
+    if plane == "yz" and tilt == [True, False, False]:
+        return plane, "x"
+    return None
+
+
+def starters(circles: Circles) -> dict[int, list[int]]:
+    """The circles a new pivot starts with: its first circle of each plane with the platform
+    level, in the xz plane tilted about y and in the yz plane tilted about x. With the platform
+    level the data see only the difference of the ball and the pivot; a tilt about an axis in
+    the circle's plane shows the ball's other coordinates along the bar; so a pivot needs
+    both tilted circles beside the level ones for its own quantities. A pivot where one of
+    these kinds (of the candidates at any pivot) is infeasible gets none: it is not offered."""
+    out: dict[int, dict[tuple[str, str], int]] = {}
+    for c, label in enumerate(circles.labels):
+        kind = _starter_kind(label)
+        if kind is not None:
+            out.setdefault(int(circles.pivot[c]), {}).setdefault(kind, c)
+    every = {kind for kinds in out.values() for kind in kinds}
+    return {p: list(kinds.values()) for p, kinds in out.items() if set(kinds) == every}
 
 
 def select_circles(
@@ -248,12 +288,14 @@ def select_circles(
     noise: NoiseModel | None = None,
     fit: str = "joints,l0",
 ) -> CircleSelection:
-    """Choose ``n`` circles greedily (A-criterion, gauge-fixed).
+    """Choose ``n`` circles greedily (A-criterion of the machine's parameters, gauge-fixed).
 
-    At each step every remaining candidate is scored at once (a batch of information
-    matrices): the trace of the covariance of the machine's parameters and of the setups of
-    the pivots in use, the candidate's own included (so a circle at a new pivot pays for the
-    seven quantities it brings); the circle that gives the least is added.
+    A step either adds one circle at a pivot already in use, or takes a new pivot with its
+    :func:`starters` (a pivot measured by one circle, or by level circles only, leaves its own
+    quantities undetermined), while there is room for them. Every move is scored at once (a
+    batch of information matrices) by the trace of the covariance of the machine's
+    parameters, every used pivot's setup fitted too; the move that lowers it most per circle
+    is made (the first: the lowest trace). Returns the circles in the order chosen.
     """
     if not 1 <= n <= circles.n_circles:
         raise InputError(f"--circles {n}: choose between 1 and {circles.n_circles} circles")
@@ -262,24 +304,29 @@ def select_circles(
     blocks = circle_rows(problem, circles, noise)
     infos = np.stack([b.T @ b for b in blocks])  # (C, n, n)
     proj = gauge_projector(gauge_freedoms(problem, problem.full0))
-    # the columns of each pivot's setup (sessions in increasing pivot order), and the machine's
-    own = np.zeros((len(circles.pivots), problem.n_free), dtype=bool)
-    for p, part in zip(np.unique(circles.pivot), problem.parts, strict=True):
-        own[p, problem.free_in(part.block)] = True
     counted = np.zeros(problem.n_free, dtype=bool)
     counted[: int(problem.machine_mask.sum())] = True
+    first = starters(circles)
     chosen: list[int] = []
     total = np.zeros_like(infos[0])
+    current = np.inf
     history = []
-    for _ in range(n):
-        left = np.array([c for c in range(circles.n_circles) if c not in chosen])
-        cols = counted | own[circles.pivot[left]]
-        scores = _trace(total + infos[left], proj, cols, problem.scale)
-        best = int(left[int(np.argmin(scores))])
-        chosen.append(best)
-        total = total + infos[best]
-        counted = counted | own[circles.pivot[best]]
-        history.append(float(np.min(scores)))
+    while len(chosen) < n:
+        used = {int(circles.circle_pivot(c)) for c in chosen}
+        moves = [[c] for c in range(circles.n_circles) if c not in chosen and int(circles.pivot[c]) in used]
+        room = n - len(chosen)
+        moves += [group for p, group in first.items() if p not in used and len(group) <= room]
+        if not moves:  # every pivot used up: any circle left
+            moves = [[c] for c in range(circles.n_circles) if c not in chosen]
+        added = np.stack([infos[m].sum(axis=0) for m in moves])
+        scores = _trace(total + added, proj, counted, problem.scale)
+        cost = np.array([len(m) for m in moves], dtype=float)
+        gain = -scores if not np.isfinite(current) else (current - scores) / cost
+        best = int(np.argmax(gain))
+        chosen += moves[best]
+        total = total + added[best]
+        current = float(scores[best])
+        history += [current] * len(moves[best])
     return CircleSelection(np.asarray(chosen, dtype=np.intp), circles.subset(chosen), tuple(history))
 
 
