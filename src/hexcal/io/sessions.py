@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from hexcal.errors import InputError, InputWarning, UsageError
+from hexcal.instruments.ballbar_setup import BallbarSetup
 from hexcal.instruments.base import MeasurementModel, Session
 from hexcal.instruments.registry import instrument_for
 from hexcal.instruments.setup import Setup
@@ -131,7 +132,7 @@ def load_instrument(
     angles in the Euler sequence ``euler``; an instrument is returned as it is."""
     if isinstance(setup, MeasurementModel):
         return setup
-    if setup is not None and not isinstance(setup, Setup):
+    if setup is not None and not isinstance(setup, Setup | BallbarSetup):
         setup = load_setup(setup)
     return instrument_for(None if setup is None else setup.in_euler(euler))
 
@@ -190,7 +191,7 @@ def read_sessions(
     sessions = []
     for k, (path, setup) in enumerate(zip(data, setups, strict=True)):
         key = str(setup)
-        if setup is not None and not isinstance(setup, Setup | MeasurementModel):
+        if setup is not None and not isinstance(setup, Setup | BallbarSetup | MeasurementModel):
             if key not in loaded:
                 loaded[key] = load_setup(setup)
             setup = loaded[key]
