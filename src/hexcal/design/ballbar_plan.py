@@ -335,7 +335,8 @@ def circle_accuracy(
 ) -> dict[str, Any]:
     """Predicted accuracy of measuring ``circles``: the machine's Cramér–Rao covariance
     (gauge-fixed) through :func:`hexcal.calibration.accuracy.predicted_pose_accuracy`, with the
-    rank and the mean σ of the joints and ``l0`` (mm)."""
+    rank and the mean σ of the joints and ``l0`` (mm); ``poses`` counts the test poses of the
+    accuracy, ``circle_poses`` those measured."""
     noise = NoiseModel(distribution="normal") if noise is None else noise
     problem = circle_problem(geometry, circles, fit)
     cov = cramer_rao(problem, noise)
@@ -348,7 +349,7 @@ def circle_accuracy(
     return {
         "circles": circles.n_circles,
         "pivots": len(np.unique(circles.pivot)),
-        "poses": len(circles.poses),
+        "circle_poses": len(circles.poses),
         "parameters": problem.n_free,
         "gauges": gauge.size,
         "rank": int(rank),
