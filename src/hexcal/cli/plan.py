@@ -216,9 +216,9 @@ def cmd_candidates(args: argparse.Namespace) -> None:
     from hexcal.io import write_poses
 
     if args.ballbar:  # circles of a ballbar (cli/ballbar.py)
-        from hexcal.cli import ballbar
+        from hexcal.cli.ballbar import cmd_candidates as circles
 
-        return ballbar.cmd_candidates(args)
+        return circles(args)
     check_outputs(args.out)
     geometry = load_geometry(args.geometry, args.euler)
     poses, ids = candidate_spec(args.candidates, geometry, args.seed)
@@ -238,9 +238,9 @@ def cmd_select(args: argparse.Namespace) -> None:
     from hexcal.report import render
 
     if args.ballbar:  # circles and pivots of a ballbar (cli/ballbar.py)
-        from hexcal.cli import ballbar
+        from hexcal.cli.ballbar import cmd_select as choose
 
-        return ballbar.cmd_select(args)
+        return choose(args)
     check_outputs(args.out, args.json, args.html)
     geometry = load_geometry(args.geometry, args.euler)
     instrument = load_instrument(args.setup, geometry.euler)
