@@ -122,11 +122,15 @@ DIAGNOSES = {
 
 #: Diagnoses of angles apply where the instrument measures angles: targets measure positions
 #: only, so a degree or Euler mistake cannot be made in their data.
+#: A ballbar's readings in metres are refused too (verdict fail, nothing written), but named as
+#: unfitted gains: d / 1000 is almost constant, which a wrong machine fits within the noise, and
+#: the gains explain what is left best (docs/ballbar.md); that case is left out here.
 FAIL_CASES = [
     (kind, diagnosis)
     for kind in KINDS
     for diagnosis in DIAGNOSES
-    if INSTRUMENTS[kind].angles or diagnosis not in ("degrees", "euler")
+    if (INSTRUMENTS[kind].angles or diagnosis not in ("degrees", "euler"))
+    and (kind, diagnosis) != ("ballbar", "metres")
 ]
 
 
@@ -183,7 +187,10 @@ def spoiled(campaigns: Campaigns) -> _Spoiled:
 SPOILED_DEFAULT = {"pose", "targets"}
 
 
-@pytest.mark.parametrize("kind", _slow_unless(KINDS, SPOILED_DEFAULT))
+#: A ballbar's spoiled reading (100 σ = 0.1 mm) is flagged by id and left out by --robust (the
+#: next test), but its verdict is warn, not fail: the bar's σ cannot be learned from one pivot's
+#: circles (too few data), so the χ² does not condemn the fit; it has no case here.
+@pytest.mark.parametrize("kind", _slow_unless([k for k in KINDS if k != "ballbar"], SPOILED_DEFAULT))
 def test_force_writes_a_failed_identification(kind: str, spoiled: dict, campaigns: Campaigns) -> None:
     done, files = spoiled[kind]["plain"]
     assert done.code == 1 and done.out.startswith("Verdict: FAIL"), done.err
