@@ -1,4 +1,4 @@
-"""Simulated campaigns of the five instruments for ``tests/test_every_instrument.py``.
+"""Simulated campaigns of the six instruments for ``tests/test_every_instrument.py``.
 
 Every file is made through the command line (``hexcal candidates``, ``hexcal synthesize
 --setup``, seeded) from the presets ``paper-hmt`` (nominal) and ``paper-hmt-true`` (the real
@@ -13,7 +13,12 @@ The five instruments:
   tool is the identity, fixed, and whose frame is ``auto``);
 - ``tool``: a 6-DOF tool, probe or motion-capture body (frame and tool unknown);
 - ``target``: one laser-tracker target;
-- ``targets``: three targets.
+- ``targets``: three targets;
+- ``ballbar``: a 150 mm ballbar at one pivot (one session), measured on circles: its poses are
+  the 30 circles ``hexcal select --ballbar`` chooses there (12 points each; held out: 7 other
+  points on each; never rotating: the level circles only), with its own noise (legs σ 2 µm,
+  the bar's reading σ 1 µm: a ballbar reads a distance to a micrometre, and with the trackers'
+  15 µm the 37 combinations one distance per pose must settle stay too weak for a verdict).
 """
 
 from __future__ import annotations
@@ -73,6 +78,10 @@ class Instrument:
         when the instrument's own quantities on the platform are free).
     spoil : tuple of str
         The columns of the spoiled observation that get 100 σ.
+    noise : tuple of str
+        The ``--noise`` options of its campaigns (the trackers' by default).
+    circles : bool
+        Whether its poses are ballbar circles (``hexcal select --ballbar``) instead of random.
     """
 
     name: str
@@ -85,6 +94,16 @@ class Instrument:
     position_columns: tuple[str, ...]
     gauges: int
     spoil: tuple[str, ...]
+    noise: tuple[str, ...] = tuple(NOISE)
+    circles: bool = False
+
+    @property
+    def sigma(self) -> dict[str, float]:
+        """The true σ of each noise group label of its campaigns."""
+        values = dict(item.split("=") for item in self.noise[1].split(","))
+        pos = float(values["pos"])
+        return {"leg": float(values["leg"]), "position": pos, "targets": pos, "ballbar": pos,
+                "orientation": float(values["ang"])}  # fmt: skip
 
 
 def _targets(names: tuple[str, ...], offset: float) -> str:
@@ -94,6 +113,10 @@ def _targets(names: tuple[str, ...], offset: float) -> str:
 
 
 POSE_GROUPS = ("leg", "position", "orientation")
+#: The ballbar's setup (pivot at the workspace's centre less the ball) and what identify knows.
+BALLBAR_TRUE = "units: mm\nballbar: {pivot: [0, 0, 750], ball: [0, 0, -50], length: 150.0}\n"
+BALLBAR_START = "units: mm\nballbar: {pivot: [1, -1, 751], ball: [0.5, 0.5, -49], length: 150.5}\n"
+BALLBAR_NOISE = ("--noise", "leg=0.002,pos=0.001,ang=0.0001", "--noise-dist", "normal")
 XYZ = ("x", "y", "z")
 
 INSTRUMENTS: dict[str, Instrument] = {
@@ -145,6 +168,20 @@ INSTRUMENTS: dict[str, Instrument] = {
         tuple(f"t{k}.{a}" for k in (1, 2, 3) for a in XYZ),
         12,
         ("t1.x", "t1.y", "t1.z"),
+    ),
+    "ballbar": Instrument(
+        "ballbar",
+        BALLBAR_TRUE,
+        BALLBAR_START,
+        360,
+        False,
+        False,
+        ("leg", "ballbar"),
+        ("d",),
+        12,
+        ("d",),
+        BALLBAR_NOISE,
+        True,
     ),
 }
 
@@ -220,6 +257,38 @@ class Campaigns:
             return []
         return ["--setup", str(self.root / f"{kind}-{which}.yaml")]
 
+    def kind_poses(self, kind: str, name: str) -> Path:
+        """The commanded poses ``name`` of instrument ``kind`` (see :meth:`poses`, :meth:`circles`)."""
+        inst = INSTRUMENTS[kind]
+        if inst.circles:
+            return self.circles(name)
+        return self.poses(name, 20 if name == "held" else inst.poses)
+
+    def spoiled_id(self, kind: str) -> str:
+        """The id of the observation the ``spoiled`` variant spoils: ``r05`` (the sixth
+        commanded pose), or the sixth circle point's id for the ballbar."""
+        if not INSTRUMENTS[kind].circles:
+            return SPOILED
+        return read_csv(self.circles("measure"))[2][5][0]
+
+    def circles(self, name: str) -> Path:
+        """Ballbar circles at the campaign's pivot: ``measure`` (the 30 ``select --ballbar``
+        chooses, 12 points each), ``held`` (7 other points on every circle), ``flat`` (the
+        level circles only: the platform never rotates)."""
+        key = ("circles", name)
+        if key not in self.files:
+            path = self.root / f"circles-{name}.csv"
+            bar = self.root / "ballbar-true.yaml"
+            where = ["--geometry", "paper-hmt", "--ballbar", bar, "--pivots", "0,0,750"]
+            if name == "measure":
+                made = run("select", *where, "--circles", 30, *BALLBAR_NOISE[:2], "--out", path)
+            else:
+                points = ["--points", 7] if name == "held" else ["--tilt", 0]
+                made = run("candidates", *where, *points, "--out", path)
+            assert made.code == 0, made.err
+            self.files[key] = path
+        return self.files[key]
+
     def poses(self, name: str, n: int) -> Path:
         """Commanded poses: ``measure`` (seed 1), ``held`` (seed 2, held out), ``flat`` (the
         measured ones with every angle 0: poses that never rotate)."""
@@ -249,11 +318,11 @@ class Campaigns:
         path = self.root / f"{kind}-{variant}.csv"
         if variant in ("clean", "held", "euler", "gains", "flat"):
             which = {"held": "held", "flat": "flat"}.get(variant, "measure")
-            poses = self.poses(which, 20 if variant == "held" else inst.poses)
+            poses = self.kind_poses(kind, which)
             true = self.root / "gains-true.yaml" if variant == "gains" else "paper-hmt-true"
             extra = ["--euler", "ZYX"] if variant == "euler" else []
             made = run("synthesize", "--nominal", "paper-hmt", "--true", true, "--poses", poses,
-                       *self.setup(kind, "true"), *NOISE, "--seed", 2 if variant == "held" else 11,
+                       *self.setup(kind, "true"), *inst.noise, "--seed", 2 if variant == "held" else 11,
                        "--out", path, *extra)  # fmt: skip
             assert made.code == 0, made.err
         elif variant == "metres":
@@ -267,8 +336,11 @@ class Campaigns:
             legs = tuple(f"dl{i}" for i in range(1, 7))
             edit_columns(self.data(kind), path, legs, lambda v, c: v + float(l0[int(c[2:]) - 1]))
         elif variant == "spoiled":
-            sigma = {c: SIGMA["orientation"] if c in "abc" else SIGMA["position"] for c in inst.spoil}
-            edit_columns(self.data(kind), path, inst.spoil, lambda v, c: v + 100 * sigma[c], rows={SPOILED})
+            sigma = {
+                c: inst.sigma["orientation"] if c in "abc" else inst.sigma["position"] for c in inst.spoil
+            }
+            spoil = {self.spoiled_id(kind)}
+            edit_columns(self.data(kind), path, inst.spoil, lambda v, c: v + 100 * sigma[c], rows=spoil)
         else:
             raise ValueError(variant)
         self.files[key] = path

@@ -1,7 +1,7 @@
 """Every promise of the one calibrator, on every instrument, through the command line.
 
-The five instruments of :mod:`instrument_campaigns` (the full pose in the base frame and in a
-frame of its own, a 6-DOF tool, one target, three targets) are simulated with ``hexcal
+The six instruments of :mod:`instrument_campaigns` (the full pose in the base frame and in a
+frame of its own, a 6-DOF tool, one target, three targets, a ballbar) are simulated with ``hexcal
 synthesize --setup`` from the presets, identified from what a user knows (frame ``auto``, the
 setup's quantities to about a millimetre), and every command is asked the same questions:
 
@@ -20,7 +20,8 @@ setup's quantities to about a millimetre), and every command is asked the same q
 9. ``observability`` of poses that never rotate says what cannot be identified;
 10. ``validate`` on held-out data gives finite pose errors.
 
-Each command runs once per instrument (module-scoped fixtures), on 20 poses (40 for one target).
+Each command runs once per instrument (module-scoped fixtures), on 20 poses (40 for one target;
+the ballbar 360, on 30 circles at one pivot, and 200 random ones in its studies).
 """
 
 from __future__ import annotations
@@ -34,9 +35,6 @@ import pytest
 
 from instrument_campaigns import (
     INSTRUMENTS,
-    NOISE,
-    SIGMA,
-    SPOILED,
     Campaigns,
     Run,
     identify,
@@ -101,12 +99,14 @@ def test_identify_json_has_the_same_keys_for_every_instrument(baseline: dict) ->
         assert len(body["gauges"]) == inst.gauges, kind
         (session,) = body["sessions"]
         setup = session["setup"]
-        assert setup["frame.x"]["value"] is not None
+        first = "pivot.x" if inst.circles else "frame.x"  # a ballbar has no frame: pivot, ball, length
+        assert setup[first]["value"] is not None
         if inst.true_setup is None:  # the base frame itself: nothing of the instrument varies
-            assert session["varied"] == [] and setup["frame.x"]["stderr"] is None
-        else:  # the instrument's own quantities, identified: frame and what it sees
-            assert "frame.x" in session["varied"] and _finite(setup["frame.x"]["stderr"])
-            assert session["registration"] is not None
+            assert session["varied"] == [] and setup[first]["stderr"] is None
+        else:  # the instrument's own quantities, identified: frame (pivot) and what it sees
+            assert first in session["varied"] and _finite(setup[first]["stderr"])
+            # an auto frame is registered from the data first; a ballbar has none to register
+            assert (session["registration"] is not None) is ("auto" in inst.start_setup)
 
 
 # -- 2. a verdict fail writes nothing, names the cause -----------------------------------------
@@ -123,11 +123,15 @@ DIAGNOSES = {
 
 #: Diagnoses of angles apply where the instrument measures angles: targets measure positions
 #: only, so a degree or Euler mistake cannot be made in their data.
+#: A ballbar's readings in metres are refused too (verdict fail, nothing written), but named as
+#: unfitted gains: d / 1000 is almost constant, which a wrong machine fits within the noise, and
+#: the gains explain what is left best (docs/ballbar.md); that case is left out here.
 FAIL_CASES = [
     (kind, diagnosis)
     for kind in KINDS
     for diagnosis in DIAGNOSES
-    if INSTRUMENTS[kind].angles or diagnosis not in ("degrees", "euler")
+    if (INSTRUMENTS[kind].angles or diagnosis not in ("degrees", "euler"))
+    and (kind, diagnosis) != ("ballbar", "metres")
 ]
 
 
@@ -184,12 +188,15 @@ def spoiled(campaigns: Campaigns) -> _Spoiled:
 SPOILED_DEFAULT = {"pose", "targets"}
 
 
-@pytest.mark.parametrize("kind", _slow_unless(KINDS, SPOILED_DEFAULT))
-def test_force_writes_a_failed_identification(kind: str, spoiled: dict) -> None:
+#: A ballbar's spoiled reading (100 σ = 0.1 mm) is flagged by id and left out by --robust (the
+#: next test), but its verdict is warn, not fail: the bar's σ cannot be learned from one pivot's
+#: circles (too few data), so the χ² does not condemn the fit; it has no case here.
+@pytest.mark.parametrize("kind", _slow_unless([k for k in KINDS if k != "ballbar"], SPOILED_DEFAULT))
+def test_force_writes_a_failed_identification(kind: str, spoiled: dict, campaigns: Campaigns) -> None:
     done, files = spoiled[kind]["plain"]
     assert done.code == 1 and done.out.startswith("Verdict: FAIL"), done.err
     _nothing_written(files)
-    assert SPOILED in done.err.strip().splitlines()[-1]
+    assert campaigns.spoiled_id(kind) in done.err.strip().splitlines()[-1]
     done, files = spoiled[kind]["force"]
     assert done.code == 0, done.err
     assert all(p.exists() and p.stat().st_size > 0 for p in files.values())
@@ -225,8 +232,7 @@ def test_noise_is_learned_per_session_and_group_within_its_chi_square_spread(
     assert estimate["converged"], estimate
     # the redundancies are the degrees of freedom of the groups: together those of the fit
     assert sum(estimate[g]["redundancy"] for g in inst.groups) == pytest.approx(body["dof"], rel=1e-6)
-    true = {"leg": SIGMA["leg"], "position": SIGMA["position"], "targets": SIGMA["position"],
-            "orientation": SIGMA["orientation"]}  # fmt: skip
+    true = inst.sigma
     for group in groups:
         label, sigma = group["label"], group["sigma"]
         red = estimate[label]["redundancy"]
@@ -271,7 +277,10 @@ def test_predicted_accuracy_in_the_instruments_own_terms(kind: str, baseline: di
 
 
 @pytest.mark.parametrize("kind", _slow_unless(KINDS, SPOILED_DEFAULT))
-def test_a_spoiled_observation_is_flagged_and_robust_leaves_it_out(kind: str, spoiled: dict) -> None:
+def test_a_spoiled_observation_is_flagged_and_robust_leaves_it_out(
+    kind: str, spoiled: dict, campaigns: Campaigns
+) -> None:
+    SPOILED = campaigns.spoiled_id(kind)  # the module's SPOILED, per instrument
     done, files = spoiled[kind]["force"]
     flagged = load_json(files["json"])["flagged"]
     assert any(f.split()[0] == SPOILED for f in flagged), flagged
@@ -311,8 +320,10 @@ def planned(campaigns: Campaigns, baseline: dict) -> dict[str, dict[str, Any]]:
     for kind in KINDS:
         setup, files = campaigns.setup(kind), baseline[kind][1]
         cal_setup = ["--setup", files["setup-out"]] if "setup-out" in files else []
-        flat = campaigns.poses("flat", INSTRUMENTS[kind].poses)
-        n = INSTRUMENTS[kind].poses // 2 + 5  # one target needs more poses than the others
+        flat = campaigns.kind_poses(kind, "flat")
+        # one target needs more poses than the others; a ballbar 60 of random ones (its planning
+        # by circles is select --ballbar, tests/test_ballbar.py)
+        n = 60 if INSTRUMENTS[kind].circles else INSTRUMENTS[kind].poses // 2 + 5
         out[kind] = {
             "validate": run("validate", "--geometry", files["out"], *cal_setup, "--data",
                             campaigns.data(kind, "held"), "--out", root / f"{kind}-val.csv",
@@ -321,7 +332,7 @@ def planned(campaigns: Campaigns, baseline: dict) -> dict[str, dict[str, Any]]:
                           f"random:{3 * n}", "--out", root / f"{kind}-plan.csv", "--json",
                           root / f"{kind}-select.json", "--html", root / f"{kind}-select.html"),
             "observability": run("observability", "--geometry", "paper-hmt", *setup, "--poses",
-                                 campaigns.poses("measure", INSTRUMENTS[kind].poses), "--json",
+                                 campaigns.kind_poses(kind, "measure"), "--json",
                                  root / f"{kind}-obs.json", "--html", root / f"{kind}-observability.html"),
             "flat": run("observability", "--geometry", "paper-hmt", *setup, "--poses", flat,
                         "--json", root / f"{kind}-flat.json"),
@@ -380,11 +391,13 @@ def test_validate_on_held_out_data_gives_finite_pose_errors(kind: str, planned: 
     assert done.code == 0, done.err
     assert "warning" not in done.err, done.err
     figures = _figures(done.out)
-    if kind == "target":
-        # one target gives 3 coordinates per pose: no platform pose to compare with the
-        # forward kinematics; the instrument's own error is the figure (and no NaN row)
-        assert "position error RMS (mm)" not in figures
-        assert 0 < figures["target distance RMS (mm)"] < 1.0, figures
+    if kind in ("target", "ballbar"):
+        # one target gives 3 coordinates per pose, a ballbar one distance: no platform pose to
+        # compare with the forward kinematics; the instrument's own error is the figure (and no
+        # NaN row)
+        assert "position error RMS (mm)" not in figures and "nan" not in done.out
+        own = "target distance RMS (mm)" if kind == "target" else "bar RMS (mm)"
+        assert 0 < figures[own] < 1.0, figures
         return
     for label in ("position error RMS (mm)", "position error max (mm)", "orientation error RMS (mrad)"):
         assert _finite(figures[label]) and figures[label] > 0, figures
@@ -401,8 +414,11 @@ def simulated(campaigns: Campaigns) -> dict[str, dict[str, Run]]:
     root = campaigns.root
     for kind in KINDS:
         setup = campaigns.setup(kind, "true")
-        common = ["simulate", "--geometry", "paper-hmt", *setup, "--poses", 15, "--strategies", "interior",
-                  "--methods", "ml", *NOISE, "--quiet", "--seed", 3]  # fmt: skip
+        inst = INSTRUMENTS[kind]
+        # one distance per pose: a ballbar needs far more random poses than 15 for its 37 combinations
+        poses = 200 if inst.circles else 15
+        common = ["simulate", "--geometry", "paper-hmt", *setup, "--poses", poses, "--strategies", "interior",
+                  "--methods", "ml", *inst.noise, "--quiet", "--seed", 3]  # fmt: skip
         gains = ["--true", "paper-hmt-true", "--trials", 3, "--fit", "joints,l0,gains"]
         out[kind] = {
             "jobs1": run(*common, *gains, "--jobs", 1, "--out", root / f"{kind}-sim1",

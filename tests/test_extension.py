@@ -110,7 +110,7 @@ def case(request, toys):
 
 
 def test_registered_by_name_and_in_files(toys, tmp_path):
-    bar = model_by_name("ballbar", PIVOTS[0], BALL)
+    bar = model_by_name("toybar", PIVOTS[0], BALL)
     assert isinstance(bar, BallBar) and bar.parameters().names[0] == "pivot.x"
     nominal, true = machines("quadratic")
     assert "q_1" in nominal.machine_parameters("joints,l0,quadratic").free_names

@@ -112,7 +112,7 @@ class BallBar(MeasurementModel):
     deviation of the :class:`NoiseModel` (the bar's length error).
     """
 
-    name = "ballbar"
+    name = "toybar"
     size = 1
 
     def __init__(self, pivot: ArrayLike, ball: ArrayLike, fixed: tuple[str, ...] = ()) -> None:

@@ -78,6 +78,16 @@ def _expected_validation(
 
 def _validation_reason(expected: dict[str, Any]) -> Reason:
     own = expected["from_parameters"]
+    if not np.isfinite(expected["position_rms_mm"]):  # a ballbar, one target: no pose to compare
+        return Reason(
+            "expected-validation",
+            "info",
+            f"expected from validate on a new session: no platform pose error (the instrument's "
+            f"values do not give the pose; validate compares them in its own terms); the "
+            f"parameters' part: {own['position_rms_mm']:.3g} mm, {own['orientation_rms_rad']:.3g} rad, "
+            f"leg RMS {own['leg_rms_mm']:.3g} mm",
+            expected,
+        )
     return Reason(
         "expected-validation",
         "info",

@@ -215,6 +215,10 @@ def cmd_candidates(args: argparse.Namespace) -> None:
     """The feasible candidate poses of a ``--candidates`` spec."""
     from hexcal.io import write_poses
 
+    if args.ballbar:  # circles of a ballbar (cli/ballbar.py)
+        from hexcal.cli.ballbar import cmd_candidates as circles
+
+        return circles(args)
     check_outputs(args.out)
     geometry = load_geometry(args.geometry, args.euler)
     poses, ids = candidate_spec(args.candidates, geometry, args.seed)
@@ -233,6 +237,10 @@ def cmd_select(args: argparse.Namespace) -> None:
     from hexcal.io import atomic_write, load_instrument, write_poses
     from hexcal.report import render
 
+    if args.ballbar:  # circles and pivots of a ballbar (cli/ballbar.py)
+        from hexcal.cli.ballbar import cmd_select as choose
+
+        return choose(args)
     check_outputs(args.out, args.json, args.html)
     geometry = load_geometry(args.geometry, args.euler)
     instrument = load_instrument(args.setup, geometry.euler)
@@ -285,6 +293,18 @@ def cmd_select(args: argparse.Namespace) -> None:
 
 
 # -- parser -------------------------------------------------------------------------------------
+def circle_options(p: argparse.ArgumentParser, select: bool = False) -> None:
+    """The ballbar options of ``candidates`` and ``select`` (the work: hexcal.cli.ballbar)."""
+    p.add_argument("--ballbar", metavar="FILE", help="ballbar setup YAML: its circles instead of poses")
+    p.add_argument("--pivots", help="ballbar pivots 'x,y,z;x,y,z', mm (default: seven about the centre)")
+    p.add_argument("--planes", default="xy,xz,yz", help="ballbar circle planes (of xy, xz, yz)")
+    p.add_argument(
+        "--tilt", type=float, default=8.0, help="ballbar: circles also tilted ± this about x, y (deg)"
+    )
+    p.add_argument("--points", type=int, default=12, help="ballbar: points per circle")
+    p.add_argument("--d0", type=float, default=0.0, help="ballbar: bar reading along the circles, mm")
+    if select:
+        p.add_argument("--circles", type=int, default=12, help="ballbar: circles to choose")
 
 
 def register(sub: Any) -> None:
@@ -343,8 +363,9 @@ def register(sub: Any) -> None:
     p.add_argument("--min-distance", type=float, help="minimum singularity distance (default 0.05)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--euler", help=EULER_HELP)
+    circle_options(p)
     spec = {"input_lists": {"candidates": candidate_files}}  # the files of a spec are inputs
-    p.set_defaults(func=cmd_candidates, inputs=("geometry",), outputs=("out",), folders=(), **spec)
+    p.set_defaults(func=cmd_candidates, inputs=("geometry", "ballbar"), outputs=("out",), folders=(), **spec)
 
     p = sub.add_parser("select", help="select optimal measurement poses (greedy + exchange)")
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
@@ -369,7 +390,10 @@ def register(sub: Any) -> None:
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: poses optimal for it")
     p.add_argument("--fix", nargs="+", metavar="NAME", help="parameters or groups to hold, e.g. frame")
-    p.set_defaults(func=cmd_select, inputs=("geometry", "setup"), outputs=("out", "json", "html"), **spec)
+    circle_options(p, select=True)
+    p.set_defaults(
+        func=cmd_select, inputs=("geometry", "setup", "ballbar"), outputs=("out", "json", "html"), **spec
+    )
     p.set_defaults(folders=())
     for name in ("errormap", "observability", "candidates", "select"):
         show_defaults(sub.choices[name])

@@ -7,7 +7,8 @@ Modules, lowest first: ``candidates`` (candidate poses and their feasibility),
 ``accuracy`` (predicted covariances and pose errors), ``analysis`` (one pose set, all of it),
 ``criteria`` (optimality criteria and their rank-6 updates), ``selection`` (greedy and
 exchange), ``planning`` (a selection with its predicted accuracy beside other strategies),
-``pose_errors``, ``errormap`` and ``paper_claims`` (the seed paper's error maps).
+``pose_errors``, ``errormap`` and ``paper_claims`` (the seed paper's error maps),
+``ballbar_plan`` (ballbar circles and their selection).
 
 >>> from hexcal.design import criterion_value
 >>> criterion_value([[1.0, 0.0], [0.0, 1.0]], "A")
@@ -27,6 +28,9 @@ Public names
 - ``select_poses``, ``SelectionResult``, ``greedy_selection``, ``exchange_selection``,
   ``information_blocks``, ``information_matrix``, ``CRITERIA``, ``criterion_value``: optimal
   design on per-pose information blocks (D, A, E, O4).
+- ``ballbar_circles``, ``Circles``, ``select_circles``, ``CircleSelection``, ``circle_accuracy``:
+  ballbar campaigns (docs/ballbar.md): feasible circles at pivots, the circles and pivots
+  chosen for a machine, and their predicted accuracy (``hexcal candidates/select --ballbar``).
 - ``error_maps``, ``ErrorMaps``, ``claims``: pose error maps of parameter errors (the seed
   paper's Figs. 4-9) and the numbers that test its claims.
 
@@ -37,6 +41,11 @@ and rank helpers) are shared with hexcal's other layers and are not part of the 
 from hexcal._lazy import attach
 
 _NAMES = {
+    "CircleSelection": "ballbar_plan",
+    "Circles": "ballbar_plan",
+    "ballbar_circles": "ballbar_plan",
+    "circle_accuracy": "ballbar_plan",
+    "select_circles": "ballbar_plan",
     "ANGLE_PAIRS": "errormap",
     "AngleMap": "errormap",
     "COMPARISON_DRAWS": "planning",
@@ -108,6 +117,8 @@ __all__ = [
     "KINDS",
     "MIN_SINGULARITY_DISTANCE",
     "SCALINGS",
+    "CircleSelection",
+    "Circles",
     "ErrorMaps",
     "Feasibility",
     "ObservabilityIndices",
@@ -116,9 +127,11 @@ __all__ = [
     "SelectionResult",
     "StrategyComparison",
     "analyse_poses",
+    "ballbar_circles",
     "boundary_grid",
     "candidate_poses",
     "check_feasibility",
+    "circle_accuracy",
     "claims",
     "compare_strategies",
     "criterion_value",
@@ -131,6 +144,7 @@ __all__ = [
     "observability_indices",
     "optimal_poses",
     "plan_selection",
+    "select_circles",
     "select_poses",
     "singularity_distance",
     "unidentifiable_combinations",

@@ -58,7 +58,7 @@ class Estimator:
             raise IdentificationError(
                 f"the {self.name} estimator needs the platform pose measured at every observation; "
                 f"{part.label}: the {part.instrument.describe()} does not give it (a free frame or "
-                "tool, or targets): use ml"
+                "tool, targets, a ballbar): use ml"
             )
         module, _, function = self.function.partition(":")
         return getattr(importlib.import_module(module), function)(problem, noise, **options)

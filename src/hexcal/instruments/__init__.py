@@ -8,6 +8,8 @@ Public names
 - ``MeasurementModel``, ``FramedModel``, ``FullPoseModel``, ``ToolModel``, ``TargetModel``:
   the instruments (the platform pose in the base frame; a tool frame's pose or target
   positions in the instrument's own frame).
+- ``BallbarModel``, ``BallbarSetup``, ``BallbarMeasurements``: the ballbar (one distance per
+  pose between a base pivot and a platform ball; docs/ballbar.md), its setup and its data.
 - ``MODELS``, ``instrument_for``, ``full_pose``, ``model_by_name``, ``register_instrument``:
   instruments by name; the instrument a setup describes.
 - ``Setup``, ``SETUP_KEYS``, ``FIXABLE``, ``TARGET_NAME``: the instrument setup (docs/formats.md
@@ -24,6 +26,9 @@ with hexcal's other layers and are not part of the API.
 from hexcal._lazy import attach
 
 _NAMES = {
+    "BallbarMeasurements": "ballbar_setup",
+    "BallbarModel": "ballbar",
+    "BallbarSetup": "ballbar_setup",
     "ANGLE_SCALE": "setup",
     "FIXABLE": "setup",
     "FRAME_NAMES": "setup",
@@ -62,6 +67,9 @@ __all__ = [
     "MODELS",
     "SETUP_KEYS",
     "TARGET_NAME",
+    "BallbarMeasurements",
+    "BallbarModel",
+    "BallbarSetup",
     "FramedModel",
     "FullPoseModel",
     "MeasurementModel",

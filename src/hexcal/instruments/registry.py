@@ -2,12 +2,12 @@
 
 :data:`MODELS` maps each name to its class (a built-in instrument is one line here, another
 one registers itself with :func:`register_instrument`); :func:`instrument_for` gives the
-instrument a setup describes (its quantities say which: targets or a tool), and
+instrument a setup describes (its quantities say which: targets, a tool or a ballbar), and
 :func:`full_pose` the instrument of a measurement file read without a setup (the platform
 pose in the base frame).
 
 >>> sorted(MODELS)
-['pose', 'targets', 'tool']
+['ballbar', 'pose', 'targets', 'tool']
 >>> model_by_name("pose").determines_pose
 True
 """
@@ -17,6 +17,8 @@ from __future__ import annotations
 from typing import Any
 
 from hexcal.errors import UsageError
+from hexcal.instruments.ballbar import BallbarModel
+from hexcal.instruments.ballbar_setup import BallbarSetup
 from hexcal.instruments.base import MeasurementModel
 from hexcal.instruments.pose import FullPoseModel, ToolModel
 from hexcal.instruments.setup import Setup
@@ -24,13 +26,18 @@ from hexcal.instruments.targets import TargetModel
 
 #: Instrument classes by name.
 MODELS: dict[str, type[MeasurementModel]] = {
+    BallbarModel.name: BallbarModel,
     FullPoseModel.name: FullPoseModel,
     TargetModel.name: TargetModel,
     ToolModel.name: ToolModel,
 }
 
 #: The instrument of each kind of setup (:attr:`Setup.kind`).
-SETUP_KINDS: dict[str, str] = {"targets": TargetModel.name, "tool": ToolModel.name}
+SETUP_KINDS: dict[str, str] = {
+    "targets": TargetModel.name,
+    "tool": ToolModel.name,
+    "ballbar": BallbarModel.name,
+}
 
 
 def register_instrument(model: type[MeasurementModel]) -> type[MeasurementModel]:
@@ -51,7 +58,7 @@ def model_by_name(name: str, *args: Any, **options: Any) -> MeasurementModel:
     return cls(*args, **options)
 
 
-def instrument_for(setup: Setup | None, **options: Any) -> MeasurementModel:
+def instrument_for(setup: Setup | BallbarSetup | None, **options: Any) -> MeasurementModel:
     """The instrument of a setup (``None``: the full pose in the base frame)."""
     if setup is None:
         return FullPoseModel()

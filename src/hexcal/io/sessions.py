@@ -6,7 +6,7 @@ kind names the instrument (:func:`hexcal.instruments.instrument_for`), and the i
 name the reader and writer of its data files here (:data:`READERS`, :data:`WRITERS`): a new
 instrument's files are one reader and one writer added to these (by a line here, or
 ``READERS[name] = reader`` from its own module); its instrument is then given as such, since
-a setup file describes targets or a tool only.
+a setup file describes targets, a tool or a ballbar.
 
 Column maps: a setup's ``columns`` says how the files of its instrument name their columns;
 a map given to :func:`read_session` (the command line's ``--columns``) is merged with it, the
@@ -23,9 +23,11 @@ from pathlib import Path
 from typing import Any
 
 from hexcal.errors import InputError, InputWarning, UsageError
+from hexcal.instruments.ballbar_setup import BallbarSetup
 from hexcal.instruments.base import MeasurementModel, Session
 from hexcal.instruments.registry import instrument_for
 from hexcal.instruments.setup import Setup
+from hexcal.io.ballbar_files import ballbar_reader, write_ballbar_measurements
 from hexcal.io.measurement_files import read_measurements, write_measurements
 from hexcal.io.setup_file import load_setup
 from hexcal.io.tables import check_column_map
@@ -58,7 +60,12 @@ def _targets(
 
 
 #: The data reader of each instrument, by its registry name.
-READERS: dict[str, Reader] = {"pose": _full_pose, "tool": _tool, "targets": _targets}
+READERS: dict[str, Reader] = {
+    "pose": _full_pose,
+    "tool": _tool,
+    "targets": _targets,
+    "ballbar": ballbar_reader,
+}
 
 
 def merge_columns(setup: Columns, given: Columns, where: str = "--columns") -> dict[str, str] | None:
@@ -101,8 +108,21 @@ def _write_targets(
     write_target_measurements(path, data, comment=comment)
 
 
+def _write_ballbar(
+    path: Any, data: Any, euler: str, orientation: str = "rad", comment: str | None = None
+) -> None:
+    if orientation != "rad":
+        raise InputError(f"--orientation {orientation}: ballbar readings have no orientation")
+    write_ballbar_measurements(path, data, comment=comment)
+
+
 #: The data writer of each instrument, by its registry name.
-WRITERS: dict[str, Writer] = {"pose": _write_poses, "tool": _write_poses, "targets": _write_targets}
+WRITERS: dict[str, Writer] = {
+    "pose": _write_poses,
+    "tool": _write_poses,
+    "targets": _write_targets,
+    "ballbar": _write_ballbar,
+}
 
 
 def load_instrument(
@@ -112,7 +132,7 @@ def load_instrument(
     angles in the Euler sequence ``euler``; an instrument is returned as it is."""
     if isinstance(setup, MeasurementModel):
         return setup
-    if setup is not None and not isinstance(setup, Setup):
+    if setup is not None and not isinstance(setup, Setup | BallbarSetup):
         setup = load_setup(setup)
     return instrument_for(None if setup is None else setup.in_euler(euler))
 
@@ -171,7 +191,7 @@ def read_sessions(
     sessions = []
     for k, (path, setup) in enumerate(zip(data, setups, strict=True)):
         key = str(setup)
-        if setup is not None and not isinstance(setup, Setup | MeasurementModel):
+        if setup is not None and not isinstance(setup, Setup | BallbarSetup | MeasurementModel):
             if key not in loaded:
                 loaded[key] = load_setup(setup)
             setup = loaded[key]

@@ -62,7 +62,7 @@ TARGET_COLUMN = re.compile(r"^(t[0-9]+)\.([xyz])$")
 UNIT_WORDS = {"mm", "rad", "deg", "°", "-", "", "1"}
 KNOWN_UNITS = UNIT_WORDS | {"m", "cm", "dm", "um", "µm", "μm", "nm", "in", "inch", "ft", "mrad", "urad"}
 KNOWN_UNITS |= {"µrad", "degree", "degrees", "grad", "gon", "rev", "revolutions", "turns"}
-_LENGTHS = re.compile(r"^(x|y|z|d?l[1-6]|t[0-9]+\.[xyz])$")
+_LENGTHS = re.compile(r"^(x|y|z|d|d?l[1-6]|t[0-9]+\.[xyz])$")
 _UNITS = {  # per column kind: the units accepted, and how to say so
     "length": ({"mm", ""}, "mm here"),
     "rad": ({"rad", ""}, "rad here (name the columns a_deg, b_deg, c_deg for degrees)"),

@@ -32,7 +32,17 @@ from hexcal.report.html import (
     section,
     verdict_block,
 )
-from hexcal.report.units import UNIT_WORDS, display, fmt, is_angle, parameter_unit, validation_rows
+from hexcal.report.units import (
+    OWN_NOTE,
+    UNIT_WORDS,
+    display,
+    fmt,
+    has_poses,
+    is_angle,
+    own_rows,
+    parameter_unit,
+    validation_rows,
+)
 
 #: Captions of the identification figures, by figure name.
 IDENTIFICATION_CAPTIONS = {
@@ -316,10 +326,12 @@ def validation_report(
     dicts = {name: r.to_dict() for name, r in results.items()}
     first_result = next(iter(results.values()))
     first = next(iter(dicts.values()))
-    figures = {
-        "pose_errors": fig.svg(fig.validation_errors(first["ids"], dicts)),
-        "distributions": fig.svg(fig.validation_distributions(dicts)),
-    }
+    figures = {}
+    if any(has_poses(d) for d in dicts.values()):  # none for a ballbar or one target: no pose
+        figures = {
+            "pose_errors": fig.svg(fig.validation_errors(first["ids"], dicts)),
+            "distributions": fig.svg(fig.validation_distributions(dicts)),
+        }
     instrument = getattr(first_result, "instrument", "")
     return {
         "kind": "validation",
@@ -354,7 +366,11 @@ def validation_page(report: Mapping[str, Any]) -> str:
     summary = data_table(columns, summary_rows(results), sortable=False, table_id="summary-table")
     sections = [section("Summary", summary, "summary")]
     first = next(iter(results.values()), None)
-    if first is not None:
+    if first is not None and not any(has_poses(r) for r in results.values()):  # a ballbar
+        cols, rows = own_rows(results, first)
+        table = data_table(cols, rows[:MAX_POSE_ROWS], table_id="poses", scroll=True)
+        sections.append(section("Per pose", table + f'<p class="muted">{OWN_NOTE}</p>', "poses"))
+    elif first is not None:
         per_pose = [
             (
                 pid,

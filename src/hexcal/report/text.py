@@ -376,7 +376,7 @@ def _expected_lines(expected: dict[str, Any] | None) -> list[str]:
         "given": "Expected from the calibration (its uncertainty, the noise given)",
     }
     for entry in (expected, expected.get("with_session_noise")):
-        if not entry:
+        if not entry or not math.isfinite(entry["position_rms_mm"]):  # no pose (a ballbar)
             continue
         figures = (
             f"position RMS {entry['position_rms_mm']:.3g} mm, orientation RMS "

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 _SESSION = re.compile(r"^session(\d+)\.")
@@ -142,3 +142,23 @@ def fmt(value: Any, digits: int = 4, missing: str = "n/a") -> str:
     except (TypeError, ValueError):
         return str(value)
     return f"{v:.{digits}g}" if math.isfinite(v) else missing
+
+
+#: What the validate page says under an instrument's own per-pose errors.
+OWN_NOTE = "The instrument does not give the platform pose: its own prediction errors, predicted minus read."
+
+
+def has_poses(result: Mapping[str, Any]) -> bool:
+    """Whether a validation has a platform pose error anywhere (NaN or None where not)."""
+    return any(isinstance(v, int | float) and v == v for v in result.get("position_error", ()))
+
+
+def own_rows(results: Mapping[str, Any], first: Mapping[str, Any]) -> tuple[list[str], list[tuple]]:
+    """Per-pose columns and rows of the instrument's own errors (a ballbar's bar error, mm)."""
+    names = list(first.get("instrument_errors") or {})
+    cols = ["pose"] + [f"{geo} {name} (mm)" for geo in results for name in names]
+    rows = [
+        (pid, *(r["instrument_errors"][name][k] for r in results.values() for name in names))
+        for k, pid in enumerate(first["ids"])
+    ]
+    return cols, rows
