@@ -1,0 +1,425 @@
+"""The ISO 230-4 circular test and the ISO 9283 pose accuracy and repeatability, as numbers.
+
+Pure numpy (scipy, deferred, for grouping repeated visits). Lengths in mm, angles in rad.
+What each figure is, as implemented (the wording of the standards' terms, then the choices
+hexcal makes where a standard leaves one):
+
+**ISO 230-4** (test code for machine tools, part 4: circular tests for numerically controlled
+machine tools; the terms of its clause 3). The *nominal path* is the commanded circle; the
+*actual path* is where the machine went, measured as a radial deviation from the nominal
+circle at each commanded point.
+
+- nominal circle: its plane is the least-squares plane of the commanded positions, its
+  centre and radius the least-squares circle of their projections on that plane (or given);
+  angles are measured counterclockwise in that plane, seen from the side its normal points
+  to (the normal is turned towards the positive side of the base axis it is closest to:
+  ``+z`` for a circle in the x-y plane, so that CCW is the usual CCW);
+- the actual point of a commanded point ``q`` at angle ``θ`` lies at the radius
+  ``|q - c0| + d`` from the nominal centre ``c0`` (``d`` its measured radial deviation);
+- **radial deviation F** (``F_max``, ``F_min``): the largest and smallest deviation of the
+  actual path from the nominal circle, the centre of the nominal circle being where the
+  instrument was centred (the commanded centre ``c0``): ``max`` and ``min`` of
+  ``|q - c0| + d - R0``;
+- **circular deviation G**: the minimum radial separation of two concentric circles that
+  enclose the actual path, their centre being the centre of the least-squares circle (LSC)
+  of the actual path: ``max r - min r`` with ``r`` the distances of the actual points from
+  that centre. (The standard also admits a minimum-zone centre, whose ``G`` is never larger;
+  hexcal gives the LSC value.) Given per direction; **G(b)**, bidirectional, is the same
+  over both runs together, with the LSC of both;
+- **circular hysteresis H**: the largest radial difference between the clockwise and the
+  counterclockwise actual paths at the same angle, both about the nominal centre: each
+  run's radius is interpolated (linearly, periodically) at the other run's angles where the
+  other run covers them, and ``H = max |r_ccw(θ) - r_cw(θ)|``;
+- as ballbar software prints them, per run: the LSC centre's offset from the nominal centre
+  (in the plane's axes) and the radius error (the LSC radius minus the nominal radius).
+
+The direction of every point is the sign of the angle's progression through the points in
+their order (the unwrapped angle of the next point minus that of the previous), unless
+given. Every point measured is used (drop feed ramps, overshoot arcs from the data first).
+
+**ISO 9283** (manipulating industrial robots, performance criteria; its 7.2.1 pose accuracy
+and 7.2.2 pose repeatability). For each commanded pose ``c`` visited ``n`` times, with the
+attained positions ``(x_j, y_j, z_j)`` and orientation angles ``(a_j, b_j, c_j)``:
+
+- barycentre ``x̄ = (1/n) Σ x_j`` (likewise ``ȳ, z̄``, and ``ā, b̄, c̄``);
+- **position accuracy** ``AP_p = sqrt((x̄ - x_c)² + (ȳ - y_c)² + (z̄ - z_c)²)``, with its
+  components ``AP_x = x̄ - x_c``, ...; **orientation accuracy** ``AP_a = ā - a_c``,
+  ``AP_b = b̄ - b_c``, ``AP_c = c̄ - c_c``;
+- **position repeatability** ``RP_l = l̄ + 3 S_l`` where ``l_j = sqrt((x_j - x̄)² + (y_j -
+  ȳ)² + (z_j - z̄)²)``, ``l̄ = (1/n) Σ l_j`` and ``S_l = sqrt(Σ (l_j - l̄)² / (n - 1))``;
+- **orientation repeatability** ``RP_a = ±3 S_a`` with ``S_a = sqrt(Σ (a_j - ā)² / (n - 1))``
+  (likewise ``RP_b``, ``RP_c``; the value given is ``3 S_a``).
+
+The angles are the pose's own three angles (the geometry's Euler sequence); differences of
+angles are wrapped to (-π, π]. The standard measures 30 visits per pose; the count is
+reported and repeatability needs at least two.
+
+>>> import numpy as np
+>>> t = np.radians(np.arange(0, 360, 90.0))
+>>> q = 100 * np.column_stack([np.cos(t), np.sin(t)])
+>>> c = circular_test(q, [0.01, 0.0, -0.01, 0.0], direction=np.ones(4))
+>>> round(c.runs["ccw"].f_max, 6), round(c.runs["ccw"].f_min, 6)
+(0.01, -0.01)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hexcal.errors import InputError
+
+#: Direction names by the sign of the angle's progression.
+DIRECTIONS = {1: "ccw", -1: "cw"}
+
+_LSC_ITERATIONS = 20
+
+
+def lsc_circle(points: ArrayLike) -> tuple[NDArray[np.float64], float]:
+    """The least-squares circle of points ``(m, 2)``: centre and radius minimising
+    ``Σ (|p_i - c| - ρ)²`` (Gauss–Newton from the algebraic fit).
+
+    >>> c, r = lsc_circle([[1, 0], [0, 1], [-1, 0], [0, -1]])
+    >>> np.abs(np.round(c, 12)).tolist(), round(r, 12)
+    ([0.0, 0.0], 1.0)
+    """
+    p = np.asarray(points, dtype=float).reshape(-1, 2)
+    if len(p) < 3:
+        raise InputError(f"a circle needs at least 3 points, got {len(p)}")
+    design = np.column_stack([2 * p, np.ones(len(p))])
+    sol, *_ = np.linalg.lstsq(design, np.sum(p**2, axis=1), rcond=None)
+    centre, radius = sol[:2], float(np.sqrt(max(sol[2] + sol[:2] @ sol[:2], 0.0)))
+    for _ in range(_LSC_ITERATIONS):
+        diff = p - centre
+        dist = np.linalg.norm(diff, axis=1)
+        if np.any(dist == 0):
+            break
+        jac = np.column_stack([-diff / dist[:, None], -np.ones(len(p))])
+        step, *_ = np.linalg.lstsq(jac, -(dist - radius), rcond=None)
+        centre, radius = centre + step[:2], radius + float(step[2])
+        if np.max(np.abs(step)) < 1e-13 * (1 + radius):
+            break
+    return centre, radius
+
+
+def circle_plane(positions: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The least-squares plane of positions ``(m, 3)``: a point of it (the centroid) and its
+    axes ``(3, 3)`` (rows: in-plane ``u``, in-plane ``v``, normal ``n``, right-handed), the
+    normal turned towards the positive side of its closest base axis, ``u`` the projection of
+    the first base axis not along the normal.
+
+    >>> origin, axes = circle_plane([[1, 0, 5], [0, 1, 5], [-1, 0, 5], [0, -1, 5]])
+    >>> np.round(axes, 12).tolist()
+    [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    """
+    p = np.asarray(positions, dtype=float).reshape(-1, 3)
+    origin = p.mean(axis=0)
+    normal = np.linalg.svd(p - origin)[2][-1]
+    normal = normal * np.sign(normal[np.argmax(np.abs(normal))])
+    base = np.eye(3)[1 if int(np.argmax(np.abs(normal))) == 0 else 0]
+    u = base - (base @ normal) * normal
+    u /= np.linalg.norm(u)
+    return origin, np.array([u, np.cross(normal, u), normal])
+
+
+def progression(angles: ArrayLike) -> NDArray[np.int_]:
+    """The direction of each point (+1 counterclockwise, -1 clockwise) from the order of
+    the points: the sign of the unwrapped angle of the next point minus that of the previous.
+
+    >>> progression(np.radians([0, 10, 20, 10, 0])).tolist()
+    [1, 1, 0, -1, -1]
+    """
+    t = np.unwrap(np.asarray(angles, dtype=float))
+    if len(t) < 2:
+        return np.ones(len(t), dtype=int)
+    ahead = np.concatenate([t[1:], t[-1:]])
+    behind = np.concatenate([t[:1], t[:-1]])
+    return np.sign(ahead - behind).astype(int)
+
+
+@dataclass(frozen=True)
+class CircleRun:
+    """The figures of one run (or both together) of a circular test (mm, rad)."""
+
+    points: int
+    f_max: float
+    f_min: float
+    g: float
+    centre_offset: tuple[float, float]
+    radius_error: float
+    angles: NDArray[np.float64] = field(repr=False)
+    deviation: NDArray[np.float64] = field(repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "points": self.points,
+            "radial_deviation_max_mm": self.f_max,
+            "radial_deviation_min_mm": self.f_min,
+            "circular_deviation_mm": self.g,
+            "centre_offset_mm": list(self.centre_offset),
+            "radius_error_mm": self.radius_error,
+            "angles_deg": np.degrees(self.angles).tolist(),
+            "deviation_mm": self.deviation.tolist(),
+        }
+
+
+@dataclass(frozen=True)
+class CircularTest:
+    """An ISO 230-4 circular test (module docstring): the nominal circle, each run's figures
+    (``ccw``, ``cw``, and ``both`` when there are two), ``G(b)`` and ``H`` (None with one run)."""
+
+    radius: float
+    centre: NDArray[np.float64]
+    axes: NDArray[np.float64]
+    runs: dict[str, CircleRun]
+    hysteresis: float | None
+    bidirectional: float | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready figures (mm; angles of the runs' points in degrees)."""
+        return {
+            "nominal_radius_mm": self.radius,
+            "nominal_centre_mm": self.centre.tolist(),
+            "plane_axes": self.axes.tolist(),
+            "runs": {name: run.to_dict() for name, run in self.runs.items()},
+            "circular_hysteresis_mm": self.hysteresis,
+            "bidirectional_circular_deviation_mm": self.bidirectional,
+        }
+
+
+def _run(angles: NDArray, radii: NDArray, radius: float) -> CircleRun:
+    points = radii[:, None] * np.column_stack([np.cos(angles), np.sin(angles)])
+    centre, rho = lsc_circle(points)
+    about = np.linalg.norm(points - centre, axis=1)
+    dev = radii - radius
+    return CircleRun(
+        len(angles),
+        float(dev.max()),
+        float(dev.min()),
+        float(about.max() - about.min()),
+        (float(centre[0]), float(centre[1])),
+        float(rho - radius),
+        angles,
+        dev,
+    )
+
+
+def _covered(at: NDArray, angles: NDArray) -> NDArray[np.bool_]:
+    """Which angles ``at`` a run through ``angles`` covers: all but its largest gap between
+    neighbouring angles (mod 2π), when that gap is wider than three typical steps."""
+    wrapped = np.sort(np.mod(angles, 2 * np.pi))
+    gaps = np.diff(np.concatenate([wrapped, wrapped[:1] + 2 * np.pi]))
+    k = int(np.argmax(gaps))
+    if gaps[k] <= 3 * np.median(gaps):
+        return np.ones(len(at), dtype=bool)
+    into = np.mod(at - wrapped[k], 2 * np.pi)
+    return (into <= 1e-12) | (into >= gaps[k] - 1e-12)
+
+
+def _hysteresis(ccw: tuple[NDArray, NDArray], cw: tuple[NDArray, NDArray]) -> float:
+    diffs = []
+    for (t_a, r_a), (t_b, r_b) in ((ccw, cw), (cw, ccw)):
+        inside = _covered(t_a, t_b)
+        if inside.any():
+            other = np.interp(t_a[inside], t_b, r_b, period=2 * np.pi)
+            diffs.append(np.abs(r_a[inside] - other))
+    return float(np.max(np.concatenate(diffs))) if diffs else float("nan")
+
+
+def circular_test(
+    commanded: ArrayLike,
+    deviation: ArrayLike,
+    direction: ArrayLike | None = None,
+    *,
+    centre: ArrayLike | None = None,
+    radius: float | None = None,
+) -> CircularTest:
+    """The ISO 230-4 figures of one circle (module docstring).
+
+    Parameters
+    ----------
+    commanded : array_like, shape (m, 2) or (m, 3)
+        The commanded positions, mm: in the circle's plane, or in space (their least-squares
+        plane is the circle's).
+    deviation : array_like, shape (m,)
+        The measured radial deviation of the actual path at each point, mm (outwards positive).
+    direction : array_like of +1/-1, shape (m,), optional
+        Counterclockwise (+1) or clockwise (-1) per point; default from the points' order.
+    centre, radius : optional
+        The nominal circle's centre (in the plane's coordinates) and radius; default the
+        least-squares circle of the commanded positions.
+
+    Raises
+    ------
+    InputError
+        Fewer than 3 points in a run, shapes that do not agree, non-finite values.
+    """
+    q = np.asarray(commanded, dtype=float)
+    d = np.asarray(deviation, dtype=float).reshape(-1)
+    if q.ndim != 2 or q.shape[1] not in (2, 3) or len(q) != len(d):
+        raise InputError(
+            f"a circle: commanded positions (m, 2 or 3) and m deviations, got {q.shape}, {d.shape}"
+        )
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(d))):
+        raise InputError("a circle: commanded positions and deviations must be finite")
+    if q.shape[1] == 3:
+        origin, axes = circle_plane(q)
+        planar = (q - origin) @ axes[:2].T
+    else:
+        origin, axes, planar = np.zeros(3), np.eye(3), q
+    c0, r0 = lsc_circle(planar) if centre is None else (np.asarray(centre, dtype=float), float(radius or 0))
+    if centre is not None and radius is None:
+        r0 = float(np.mean(np.linalg.norm(planar - c0, axis=1)))
+    rel = planar - c0
+    angles = np.arctan2(rel[:, 1], rel[:, 0])
+    radii = np.linalg.norm(rel, axis=1) + d
+    sense = progression(angles) if direction is None else np.sign(np.asarray(direction, dtype=float))
+    sense = np.where(sense == 0, np.concatenate([sense[1:], sense[-1:]]), sense)  # a turning point
+    runs: dict[str, CircleRun] = {}
+    for sign, name in DIRECTIONS.items():
+        mask = sense == sign
+        if mask.sum() >= 3:
+            runs[name] = _run(angles[mask], radii[mask], r0)
+    if not runs:
+        raise InputError(f"a circle needs at least 3 points in one direction, got {len(d)} points")
+    hysteresis = bidirectional = None
+    if len(runs) == 2:
+        both = _run(angles, radii, r0)
+        runs["both"] = both
+        bidirectional = both.g
+        hysteresis = _hysteresis(
+            (angles[sense == 1], radii[sense == 1]), (angles[sense == -1], radii[sense == -1])
+        )
+    centre3 = origin + c0 @ axes[:2] if q.shape[1] == 3 else np.array([*c0, 0.0])
+    return CircularTest(r0, centre3, axes, runs, hysteresis, bidirectional)
+
+
+# -- ISO 9283 ------------------------------------------------------------------------------------
+
+
+def repeated_visits(readings: ArrayLike, tolerance: float) -> NDArray[np.intp]:
+    """Visits of the same commanded pose: observations whose leg readings all agree within
+    ``tolerance`` (mm), chained (single linkage), numbered 0, 1, ... in order of first visit.
+
+    >>> repeated_visits([[0] * 6, [5] * 6, [0.001] * 6], 0.01).tolist()
+    [0, 1, 0]
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    r = np.asarray(readings, dtype=float).reshape(-1, 6)
+    if not tolerance >= 0:
+        raise InputError(f"the tolerance of repeated visits must be >= 0, got {tolerance}")
+    pairs = cKDTree(r).query_pairs(tolerance, p=np.inf, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(r), len(r)))
+    labels = connected_components(graph, directed=False)[1]
+    _, first, inverse = np.unique(labels, return_index=True, return_inverse=True)
+    return np.argsort(np.argsort(first))[inverse]
+
+
+def _wrap(angles: NDArray) -> NDArray:
+    return np.mod(angles + np.pi, 2 * np.pi) - np.pi
+
+
+@dataclass(frozen=True)
+class PoseStatistics:
+    """ISO 9283 figures per commanded pose (module docstring): arrays over the poses that
+    were visited, in order of first visit. ``accuracy`` ``(k, 6)``: ``AP_x, AP_y, AP_z`` (mm),
+    ``AP_a, AP_b, AP_c`` (rad); ``position_accuracy`` ``AP_p`` (mm); ``position_repeatability``
+    ``RP_l`` (mm) and ``orientation_repeatability`` ``(k, 3)`` ``3 S_a, 3 S_b, 3 S_c`` (rad),
+    NaN for a pose visited once."""
+
+    ids: tuple[str, ...]
+    visits: NDArray[np.intp]
+    commanded: NDArray[np.float64]
+    accuracy: NDArray[np.float64]
+    position_accuracy: NDArray[np.float64]
+    position_repeatability: NDArray[np.float64]
+    orientation_repeatability: NDArray[np.float64]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: one record per commanded pose (NaN as None by the strict JSON writer)."""
+        rows = []
+        for k, pid in enumerate(self.ids):
+            ap = self.accuracy[k]
+            rows.append(
+                {
+                    "id": pid,
+                    "visits": int(self.visits[k]),
+                    "commanded": self.commanded[k].tolist(),
+                    "AP_p_mm": float(self.position_accuracy[k]),
+                    "AP_xyz_mm": ap[:3].tolist(),
+                    "AP_abc_rad": ap[3:].tolist(),
+                    "RP_l_mm": float(self.position_repeatability[k]),
+                    "RP_abc_rad": self.orientation_repeatability[k].tolist(),
+                }
+            )
+        return {"poses": rows, "repeated": int(np.sum(self.visits >= 2))}
+
+
+def pose_statistics(
+    commanded: ArrayLike, attained: ArrayLike, visits: ArrayLike, ids: tuple[str, ...] | None = None
+) -> PoseStatistics:
+    """ISO 9283 pose accuracy and repeatability of every commanded pose (module docstring).
+
+    Parameters
+    ----------
+    commanded, attained : array_like, shape (m, 6)
+        Per observation, its commanded pose and the pose attained (x, y, z mm; three angles
+        rad); the commanded pose of a visited pose is the mean over its visits.
+    visits : array_like of int, shape (m,)
+        Which commanded pose each observation visits (:func:`repeated_visits`).
+    ids : tuple of str, optional
+        A name per observation: a pose is named by its first visit's.
+    """
+    cmd = np.asarray(commanded, dtype=float).reshape(-1, 6)
+    att = np.asarray(attained, dtype=float).reshape(-1, 6)
+    labels = np.asarray(visits).reshape(-1)
+    if len(cmd) != len(att) or len(att) != len(labels):
+        raise InputError("pose statistics: commanded, attained poses and visits must have one row each")
+    if not (np.all(np.isfinite(cmd)) and np.all(np.isfinite(att))):
+        raise InputError(
+            "pose statistics need finite commanded and attained poses (does the instrument give the pose?)"
+        )
+    _, first, group = np.unique(labels, return_index=True, return_inverse=True)
+    order = np.argsort(first)  # poses in order of first visit
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    group, first = rank[group], first[order]
+    k = len(first)
+    n = np.bincount(group, minlength=k).astype(float)
+
+    def mean(values: NDArray) -> NDArray:
+        return np.stack([np.bincount(group, values[:, j], k) for j in range(values.shape[1])], 1) / n[:, None]
+
+    # angles relative to the first visit's commanded angles, wrapped: no jump at ±π
+    ref = cmd[first][group]
+    rel_cmd = np.column_stack([cmd[:, :3], _wrap(cmd[:, 3:] - ref[:, 3:])])
+    rel_att = np.column_stack([att[:, :3], _wrap(att[:, 3:] - ref[:, 3:])])
+    c = mean(rel_cmd)
+    bary = mean(rel_att)
+    accuracy = bary - c
+    spread = rel_att - bary[group]
+    dist = np.linalg.norm(spread[:, :3], axis=1)  # l_j
+    l_bar = np.bincount(group, dist, k) / n
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s_l = np.sqrt(np.bincount(group, (dist - l_bar[group]) ** 2, k) / (n - 1))
+        squares = np.stack([np.bincount(group, spread[:, 3 + j] ** 2, k) for j in range(3)], 1)
+        s_abc = np.sqrt(squares / (n - 1)[:, None])
+    once = n < 2
+    s_l[once], s_abc[once] = np.nan, np.nan
+    names = tuple(ids[i] for i in first) if ids is not None else tuple(str(i + 1) for i in first)
+    commanded_k = np.column_stack([c[:, :3], _wrap(c[:, 3:] + cmd[first, 3:])])
+    return PoseStatistics(
+        names,
+        n.astype(np.intp),
+        commanded_k,
+        accuracy,
+        np.linalg.norm(accuracy[:, :3], axis=1),
+        l_bar + 3 * s_l,
+        3 * s_abc,
+    )
