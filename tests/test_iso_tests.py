@@ -60,7 +60,8 @@ def test_hysteresis_is_the_gap_between_the_two_runs():
     dev = np.concatenate([np.full(12, 0.002), np.full(12, -0.003)])
     c = circular_test(np.vstack([forth, back]), dev, direction=np.r_[np.ones(12), -np.ones(12)])
     assert c.runs["ccw"].g == pytest.approx(0, abs=1e-12) and c.runs["cw"].g == pytest.approx(0, abs=1e-12)
-    assert c.runs["ccw"].radius_error == pytest.approx(0.002) and c.runs["cw"].radius_error == pytest.approx(-0.003)
+    assert c.runs["ccw"].radius_error == pytest.approx(0.002)
+    assert c.runs["cw"].radius_error == pytest.approx(-0.003)
     assert c.hysteresis == pytest.approx(0.005)
     assert c.bidirectional == pytest.approx(0.005)
     both = c.runs["both"]
@@ -94,7 +95,7 @@ def test_a_circle_in_space_is_found_in_its_plane():
     # is a radius error of 0.003 and F_max = F_min = 0.003.
     t = np.radians(np.arange(0, 360, 20.0))
     q = np.column_stack([10 + 50 * np.cos(t), np.full(len(t), 20.0), 30 + 50 * np.sin(t)])
-    origin, axes = circle_plane(q)
+    _, axes = circle_plane(q)
     assert np.allclose(axes, [[1, 0, 0], [0, 0, -1], [0, 1, 0]], atol=1e-12)
     c = circular_test(q, np.full(len(t), 0.003), direction=np.ones(len(t)))
     assert c.radius == pytest.approx(50) and np.allclose(c.centre, [10, 20, 30])
@@ -140,7 +141,8 @@ def test_pose_accuracy_and_repeatability_by_hand():
     s = pose_statistics(commanded, attained, [7, 3, 7, 7], ids=("p1", "q1", "p2", "p3"))
     assert s.ids == ("p1", "q1") and s.visits.tolist() == [3, 1]
     p, q = 0, 1
-    assert s.accuracy[p, :3] == pytest.approx([1, 1, 1]) and s.position_accuracy[p] == pytest.approx(np.sqrt(3))
+    assert s.accuracy[p, :3] == pytest.approx([1, 1, 1])
+    assert s.position_accuracy[p] == pytest.approx(np.sqrt(3))
     rp = (2 * np.sqrt(3) + 2) / 3 + np.sqrt(3) * (2 - np.sqrt(3))
     assert s.position_repeatability[p] == pytest.approx(rp) and rp == pytest.approx(2.285468, abs=1e-6)
     assert s.accuracy[p, 3:] == pytest.approx([0.02, 0, 0.01 / 3])
