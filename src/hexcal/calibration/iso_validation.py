@@ -83,12 +83,14 @@ def circular_tests(
     session: Session, results: Mapping[str, Any], euler: str, commanded: str | None = None
 ) -> dict[str, CircularTest]:
     """The ISO 230-4 test of each geometry's validation (module docstring), by the results'
-    names; the commanded positions from the result named ``commanded`` (default the last:
-    the nominal one when given after the calibrated)."""
+    names; the commanded positions from the result named ``commanded`` (default the one named
+    ``nominal`` if there is one, else the first)."""
     check_circle_instrument(session.instrument)
     if not results:
         raise UsageError("--iso230-4: no validation to test")
-    reference = results[commanded] if commanded is not None else list(results.values())[-1]
+    if commanded is None:
+        commanded = "nominal" if "nominal" in results else next(iter(results))
+    reference = results[commanded]
     positions = reference.model_poses[:, :3]
     out = {}
     for name, result in results.items():
