@@ -146,14 +146,15 @@ def test_the_iso_page_in_the_browser(browser, campaign, circle_run):  # noqa: F8
 
 def test_the_option_refuses_other_instruments(campaign, ballbar_setup, capsys):
     tmp = campaign["tmp"]
-    code, _, err = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--data", tmp / "visits.csv",
+    cal = tmp / "calibrated.yaml"
+    code, _, err = run(capsys, "validate", "--geometry", cal, "--data", tmp / "visits.csv",
                        "--iso230-4", "--json", tmp / "refused.json")  # fmt: skip
     assert code != 0 and "one distance per observation" in err and len(err.strip().splitlines()) == 1
     assert not (tmp / "refused.json").exists()
-    code, _, err = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--data", tmp / "circle.csv",
+    code, _, err = run(capsys, "validate", "--geometry", cal, "--data", tmp / "circle.csv",
                        "--setup", tmp / "ballbar.yaml", "--iso9283")  # fmt: skip
     assert code != 0 and "platform pose" in err
-    code, _, err = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--data", tmp / "visits.csv",
+    code, _, err = run(capsys, "validate", "--geometry", cal, "--data", tmp / "visits.csv",
                        "--polar", tmp / "p.png")  # fmt: skip
     assert code != 0 and "--iso230-4" in err and not (tmp / "p.png").exists()
 
@@ -162,14 +163,15 @@ def test_a_free_ball_bar_is_refused(campaign, monkeypatch, capsys):
     monkeypatch.setattr(io_sessions, "load_setup", lambda *a, **k: BallBar(PIVOT, BALL))
     tmp = campaign["tmp"]
     with registered():
-        code, _, err = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--data", tmp / "circle.csv",
-                           "--setup", tmp / "ballbar.yaml", "--iso230-4")  # fmt: skip
+        code, _, err = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--data",
+                           tmp / "circle.csv", "--setup", tmp / "ballbar.yaml", "--iso230-4")  # fmt: skip
     assert code != 0 and "must fix its quantities" in err
 
 
 def test_iso9283_on_repeated_visits(campaign, capsys):
     tmp = campaign["tmp"]
-    code, out, err = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--nominal", tmp / "nominal.yaml",
+    cal = tmp / "calibrated.yaml"
+    code, out, err = run(capsys, "validate", "--geometry", cal, "--nominal", tmp / "nominal.yaml",
                          "--data", tmp / "visits.csv", "--iso9283", "--json", tmp / "p.json",
                          "--html", tmp / "p.html")  # fmt: skip
     assert code == 0, err
@@ -183,6 +185,5 @@ def test_iso9283_on_repeated_visits(campaign, capsys):
     assert [p["RP_l_mm"] for p in after] == pytest.approx([p["RP_l_mm"] for p in before])
     assert "RP_l (mm)" in out and "visited more than once" in out
     assert "ISO 9283 pose accuracy and repeatability" in (tmp / "p.html").read_text()
-    code, out, _ = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--data", tmp / "cal.csv",
-                       "--iso9283")  # fmt: skip
+    code, out, _ = run(capsys, "validate", "--geometry", cal, "--data", tmp / "cal.csv", "--iso9283")
     assert code == 0 and "ISO 9283: no commanded pose is visited twice" in out
