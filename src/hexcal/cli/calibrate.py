@@ -239,7 +239,11 @@ def cmd_validate(args: argparse.Namespace) -> None:
         from hexcal.io import atomic_write
 
         with atomic_write(args.json) as fh:
-            fh.write(render("validation", validation_json(calibrated, nominal) | {"iso": iso}, "json"))
+            fh.write(
+                render(
+                    "validation", validation_json(calibrated, nominal) | ({"iso": iso} if iso else {}), "json"
+                )
+            )
         print(f"wrote the JSON summary to {args.json}")
     if args.html:
         from hexcal.io import atomic_write

@@ -21,7 +21,8 @@ from hexcal.report.iso_summary import POSE_COLUMNS, circle_rows, pose_rows
 ISO_CAPTIONS = {
     "polar": "Radial deviation from the nominal circle (bold), magnified at the scale stated under each "
     "plot, about the commanded centre: counterclockwise run solid, clockwise run dashed; angles "
-    "counterclockwise from the plane's u axis. Before and after calibration on one scale.",
+    "counterclockwise from the plane's u axis. Each plot has its own scale (stated above it), as ballbar "
+    "software does.",
 }
 
 #: The definitions the page states (docs/iso-tests.md has them in full).

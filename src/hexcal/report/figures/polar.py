@@ -1,10 +1,12 @@
 """The polar plot of an ISO 230-4 circular test: the usual look of a ballbar report.
 
-Each panel shows one geometry's test (before and after calibration side by side, on one
-scale): the nominal circle (bold), the radial deviation of the counterclockwise run (solid)
-and of the clockwise run (dashed), magnified: the radius drawn is the nominal circle's plus
-the deviation at the stated scale (µm per division of the radial grid). Angles
-counterclockwise from the plane's ``u`` axis, as in :mod:`hexcal.calibration.iso_tests`.
+Each panel shows one geometry's test (before and after calibration side by side): the
+nominal circle (bold), the radial deviation of the counterclockwise run (solid) and of the
+clockwise run (dashed), magnified: the radius drawn is the nominal circle's plus the
+deviation at the scale stated above the panel (µm per division of the radial grid). As
+ballbar software does, each panel has its own scale by default (the calibrated machine's
+deviations are often a hundred times smaller), or one scale for all. Angles counterclockwise
+from the plane's ``u`` axis, as in :mod:`hexcal.calibration.iso_tests`.
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ def nice_division(largest_um: float, divisions: int = DIVISIONS) -> float:
 
 
 def _largest(tests: Mapping[str, Mapping[str, Any]]) -> float:
+    """The largest radial deviation of the tests' runs, µm."""
     values = [
         abs(v)
         for test in tests.values()
@@ -55,16 +58,19 @@ def polar_deviation(
     tests: Mapping[str, Mapping[str, Any]],
     labels: Mapping[str, str] | None = None,
     scale_um: float | None = None,
+    shared: bool = False,
 ) -> Any:
-    """Side-by-side polar plots of circular tests (``CircularTest.to_dict()`` by name), one
-    scale for all (``scale_um`` µm per division, default from the largest deviation)."""
+    """Side-by-side polar plots of circular tests (``CircularTest.to_dict()`` by name): each
+    at its own scale from its largest deviation (:func:`nice_division`), or all at one
+    (``shared``, or ``scale_um`` µm per division given)."""
     labels = labels or {}
-    scale = scale_um or nice_division(_largest(tests))
+    common = scale_um or (nice_division(_largest(tests)) if shared else None)
     fig, axes = plt.subplots(
         1, len(tests), figsize=(5.4 * len(tests), 5.9), subplot_kw={"projection": "polar"}, squeeze=False
     )
-    rim = 2 * DIVISIONS * scale
     for ax, (name, test) in zip(axes[0], tests.items(), strict=True):
+        scale = common or nice_division(_largest({name: test}))
+        rim = 2 * DIVISIONS * scale
         circle = np.linspace(0, 2 * np.pi, 361)
         ax.plot(circle, np.full_like(circle, DIVISIONS * scale), color="0.15", lw=1.6, label="nominal circle")
         for run, (colour, style, label) in RUN_STYLES.items():
@@ -77,14 +83,15 @@ def polar_deviation(
         ax.set_ylim(0, rim)
         ticks = np.arange(1, 2 * DIVISIONS) * scale
         ax.set_yticks(ticks)
-        ax.set_yticklabels([f"{t - DIVISIONS * scale:+g}" for t in ticks], fontsize=7, color="0.35")
+        offsets = np.round(ticks / scale) * scale - DIVISIONS * scale  # µm from the nominal circle
+        ax.set_yticklabels([f"{v:+g}" if v else "0" for v in offsets], fontsize=7, color="0.35")
         ax.set_rlabel_position(100)
         ax.set_xticks(np.radians(np.arange(0, 360, 45)))
         ax.tick_params(axis="x", labelsize=8)
         ax.grid(True, color="0.8", lw=0.6)
-        ax.set_title(plain(labels.get(name, name)), fontsize=10, pad=14)
+        ax.set_title(f"{plain(labels.get(name, name))}\n{scale:g} µm/div", fontsize=10, pad=14)
         runs = test["runs"]
-        lines = [f"{scale:g} µm/div, radius {test['nominal_radius_mm']:.4g} mm"]
+        lines = [f"radius {test['nominal_radius_mm']:.4g} mm"]
         for run in ("ccw", "cw"):
             if run in runs:
                 lines.append(f"G {RUN_STYLES[run][2]} {1e3 * runs[run]['circular_deviation_mm']:.3g} µm")
