@@ -48,6 +48,16 @@ def iso_dict(
     }
 
 
+def _fixed(value: float, digits: int) -> str:
+    """A coordinate with ``digits`` decimals, no negative zero.
+
+    >>> _fixed(-1e-16, 3), _fixed(799.99999, 3)
+    ('0.000', '800.000')
+    """
+    text = f"{value:.{digits}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0 else text
+
+
 def _um(value: Any) -> str:
     if value is None or not isinstance(value, int | float) or not math.isfinite(value):
         return "-"
@@ -63,8 +73,9 @@ def circle_rows(tests: Mapping[str, Mapping[str, Any]]) -> list[tuple[str, list[
             continue
         for label, key in RUN_ROWS:
             if run == "both" and key == "circular_deviation_mm":
-                label = "bidirectional circular deviation G(b)"
-            rows.append((f"{label}, {RUN_NAMES[run]} (µm)", [t["runs"][run][key] for t in tests.values()]))
+                label = "circular deviation G(b), bidirectional"
+            where = "" if label.endswith("bidirectional") else f", {RUN_NAMES[run]}"
+            rows.append((f"{label}{where} (µm)", [t["runs"][run][key] for t in tests.values()]))
         for axis, k in (("u", 0), ("v", 1)):
             rows.append(
                 (
@@ -79,8 +90,8 @@ def circle_rows(tests: Mapping[str, Mapping[str, Any]]) -> list[tuple[str, list[
 
 def _circle_lines(tests: Mapping[str, Mapping[str, Any]], labels: Mapping[str, str]) -> list[str]:
     first = next(iter(tests.values()))
-    centre = ", ".join(f"{v:.4g}" for v in first["nominal_centre_mm"])
-    normal = ", ".join(f"{v:.3g}" for v in first["plane_axes"][2])
+    centre = ", ".join(_fixed(v, 3) for v in first["nominal_centre_mm"])
+    normal = ", ".join(_fixed(v, 4) for v in first["plane_axes"][2])
     counts = " + ".join(f"{r['points']} {RUN_NAMES[n]}" for n, r in first["runs"].items() if n != "both")
     lines = [
         "ISO 230-4 circular test",
