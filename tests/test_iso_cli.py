@@ -157,6 +157,9 @@ def test_the_option_refuses_other_instruments(campaign, ballbar_setup, capsys):
     code, _, err = run(capsys, "validate", "--geometry", cal, "--data", tmp / "visits.csv",
                        "--polar", tmp / "p.png")  # fmt: skip
     assert code != 0 and "--iso230-4" in err and not (tmp / "p.png").exists()
+    code, _, err = run(capsys, "validate", "--geometry", cal, "--data", tmp / "visits.csv",
+                       "--visit-tolerance", "0.1")  # fmt: skip
+    assert code != 0 and "give --iso9283" in err
 
 
 def test_a_free_ball_bar_is_refused(campaign, monkeypatch, capsys):

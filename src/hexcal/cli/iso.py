@@ -16,6 +16,9 @@ from typing import Any
 
 from hexcal.cli.common import CommandError, inputs_record
 
+#: Default ``--visit-tolerance`` (mm): hexcal.calibration.iso_validation.VISIT_TOLERANCE.
+VISIT_TOLERANCE = 0.01
+
 
 def iso_options(p: argparse.ArgumentParser) -> None:
     """Add ``--iso230-4``, ``--iso9283``, ``--visit-tolerance`` and ``--polar`` to ``validate``."""
@@ -35,7 +38,7 @@ def iso_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--visit-tolerance",
         type=float,
-        default=0.01,
+        default=VISIT_TOLERANCE,
         metavar="MM",
         help="--iso9283: observations whose six leg readings agree within MM are visits of one "
         "commanded pose (default %(default)s)",
@@ -49,6 +52,8 @@ def check_iso(args: argparse.Namespace, session: Any) -> None:
         raise CommandError("--polar draws the circular test: give --iso230-4")
     if args.iso230_4 and args.iso9283:
         raise CommandError("--iso230-4 (a ball bar) and --iso9283 (the pose) need different instruments")
+    if args.visit_tolerance != VISIT_TOLERANCE and not args.iso9283:
+        raise CommandError("--visit-tolerance groups the visits of --iso9283: give --iso9283")
     if not args.visit_tolerance >= 0:
         raise CommandError(f"--visit-tolerance must be >= 0, got {args.visit_tolerance}")
     if args.iso230_4:
