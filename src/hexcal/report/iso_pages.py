@@ -19,10 +19,9 @@ from hexcal.report.iso_summary import POSE_COLUMNS, circle_rows, pose_rows
 
 #: What the page says each figure is.
 ISO_CAPTIONS = {
-    "polar": "Radial deviation from the nominal circle (bold), magnified at the scale stated under each "
-    "plot, about the commanded centre: counterclockwise run solid, clockwise run dashed; angles "
-    "counterclockwise from the plane's u axis. Each plot has its own scale (stated above it), as ballbar "
-    "software does.",
+    "polar": "Radial deviation from the nominal circle (bold) about the commanded centre, magnified: "
+    "counterclockwise run solid, clockwise run dashed; angles counterclockwise from the plane's u axis. "
+    "Each plot has its own scale, stated above it (µm per division), as ballbar software does.",
 }
 
 #: The definitions the page states (docs/iso-tests.md has them in full).
