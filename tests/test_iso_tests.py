@@ -115,6 +115,15 @@ def test_bad_circles_are_one_line_errors():
         circular_test(ring([0, 90, 180]), [0, np.nan, 0])
     with pytest.raises(InputError, match="m deviations"):
         circular_test(ring([0, 90, 180]), [0, 0])
+    # a square's mid-sides and corners (100 and 100√2 mm from its centre): off any circle by ~10 %
+    square = np.array([[1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1]]) * 100.0
+    with pytest.raises(InputError, match="no circle"):
+        circular_test(square, np.zeros(8))
+    # a circle tilted out of its plane by 5 mm at one point (5 % of the radius)
+    lifted = np.column_stack([ring(np.arange(0, 360, 30)), np.zeros(12)])
+    lifted[3, 2] = 5.0
+    with pytest.raises(InputError, match="no circle"):
+        circular_test(lifted, np.zeros(12))
 
 
 def test_pose_accuracy_and_repeatability_by_hand():

@@ -77,6 +77,10 @@ DIRECTIONS = {1: "ccw", -1: "cw"}
 
 _LSC_ITERATIONS = 20
 
+#: Commanded positions farther than this fraction of the radius from their least-squares circle
+#: (or plane) are no circle: the test refuses them.
+CIRCLE_TOLERANCE = 0.01
+
 
 def lsc_circle(points: ArrayLike) -> tuple[NDArray[np.float64], float]:
     """The least-squares circle of points ``(m, 2)``: centre and radius minimising
@@ -268,11 +272,18 @@ def circular_test(
     if q.shape[1] == 3:
         origin, axes = circle_plane(q)
         planar = (q - origin) @ axes[:2].T
+        off_plane = float(np.max(np.abs((q - origin) @ axes[2])))
     else:
-        origin, axes, planar = np.zeros(3), np.eye(3), q
+        origin, axes, planar, off_plane = np.zeros(3), np.eye(3), q, 0.0
     c0, r0 = lsc_circle(planar) if centre is None else (np.asarray(centre, dtype=float), float(radius or 0))
     if centre is not None and radius is None:
         r0 = float(np.mean(np.linalg.norm(planar - c0, axis=1)))
+    off = max(float(np.max(np.abs(np.linalg.norm(planar - c0, axis=1) - r0))), off_plane)
+    if centre is None and not off <= CIRCLE_TOLERANCE * r0:
+        raise InputError(
+            f"the commanded positions are no circle: {off:.4g} mm off their least-squares circle of radius "
+            f"{r0:.4g} mm (more than {CIRCLE_TOLERANCE:.0%}); the circular test needs one circle's points"
+        )
     rel = planar - c0
     angles = np.arctan2(rel[:, 1], rel[:, 0])
     radii = np.linalg.norm(rel, axis=1) + d
