@@ -10,7 +10,8 @@ machine tools; the terms of its clause 3). The *nominal path* is the commanded c
 circle at each commanded point.
 
 - nominal circle: its plane is the least-squares plane of the commanded positions, its
-  centre and radius the least-squares circle of their projections on that plane (or given);
+  centre and radius the least-squares circle of their projections on that plane (or given;
+  fitted positions more than 1 % of the radius off that circle or plane are refused);
   angles are measured counterclockwise in that plane, seen from the side its normal points
   to (the normal is turned towards the positive side of the base axis it is closest to:
   ``+z`` for a circle in the x-y plane, so that CCW is the usual CCW);
