@@ -4,7 +4,7 @@ Both start from :func:`hexcal.calibration.validate` (one result per geometry: th
 one and, with ``--nominal``, the nominal one), which has put every observation's leg readings
 through the geometry's forward kinematics (``model_poses``) and found the platform pose the
 instrument gives (``measured_poses``). The definitions are those of
-:mod:`hexcal.calibration.iso_tests`.
+:mod:`hexcal.calibration.iso_tests` and :mod:`hexcal.calibration.iso_poses`.
 
 **ISO 230-4 on a one-distance instrument** (a ball bar). The commanded positions are the
 platform positions of the forward kinematics of the readings through the *nominal* geometry
@@ -29,7 +29,7 @@ set-up; for a bar tilted by an angle ``φ`` out of the plane divide by ``cos φ`
 
 **ISO 9283 on an instrument that gives the pose** (full pose, a tool, three targets or more).
 Visits of the same commanded pose are the observations whose six leg readings agree within a
-tolerance (the same leg commands: :func:`~hexcal.calibration.iso_tests.repeated_visits`);
+tolerance (the same leg commands: :func:`~hexcal.calibration.iso_poses.repeated_visits`);
 their commanded pose is the forward kinematics of the readings through each geometry (the
 pose that geometry's controller commands), their attained poses those the instrument gives.
 """
@@ -42,8 +42,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.calibration.iso_tests import CircularTest, PoseStatistics, circular_test, pose_statistics
-from hexcal.calibration.iso_tests import repeated_visits as visits_of
+from hexcal.calibration.iso_poses import PoseStatistics, pose_statistics
+from hexcal.calibration.iso_poses import repeated_visits as visits_of
+from hexcal.calibration.iso_tests import CircularTest, circular_test
 from hexcal.errors import UsageError
 from hexcal.instruments.base import MeasurementModel, Session
 
