@@ -85,7 +85,7 @@ def iso_results(
             note = f"no commanded pose is visited twice (leg readings within {tol} mm): nothing to report"
     data = iso_dict(
         circles, poses, note=note, tolerance=args.visit_tolerance if args.iso9283 else None,
-        instrument=calibrated.instrument,
+        instrument=calibrated.instrument, names=list(results),
     )  # fmt: skip
     print(iso_text(data))
     if args.polar:
@@ -100,7 +100,7 @@ def iso_page(args: argparse.Namespace, data: dict[str, Any], files: dict[str, An
     """The ISO page's HTML, with the summaries of the validations (calibrated, nominal)."""
     from hexcal.report import iso_report, render_html
 
-    names = list(data["labels"]) or ["geometry"]
+    names = list(data["labels"])
     ordered = {"calibrated": results[0], "geometry": results[0], "nominal": results[1]}
     validation = {n: {"summary": ordered[n].summary()} for n in names if ordered.get(n) is not None}
     return render_html(iso_report(data, validation, inputs_record(files, args)))

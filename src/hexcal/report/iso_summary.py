@@ -9,7 +9,7 @@ ISO 9283: no repeated visits
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from hexcal.core.text import printable
@@ -35,12 +35,14 @@ def iso_dict(
     note: str | None = None,
     tolerance: float | None = None,
     instrument: str = "",
+    names: Sequence[str] = (),
 ) -> dict[str, Any]:
     """The ISO figures of geometries by role (``nominal``, ``calibrated``), JSON-ready: each
-    ``CircularTest`` and ``PoseStatistics`` as its ``to_dict()``."""
+    ``CircularTest`` and ``PoseStatistics`` as its ``to_dict()``; ``labels`` name the roles of
+    the figures (or of ``names`` when there are none)."""
     return {
         "instrument": instrument,
-        "labels": {name: ROLE_LABELS.get(name, name) for name in (circles or poses or {})},
+        "labels": {name: ROLE_LABELS.get(name, name) for name in (circles or poses or names)},
         "iso230_4": None if circles is None else {k: v.to_dict() for k, v in circles.items()},
         "iso9283": None if poses is None else {k: v.to_dict() for k, v in poses.items()},
         "iso9283_note": note,
