@@ -175,3 +175,13 @@ def test_repeated_visits_chain_within_the_tolerance():
     assert repeated_visits(r, 0.0).tolist() == [0, 1, 2, 3, 4]
     with pytest.raises(InputError, match="tolerance"):
         repeated_visits(r, -1)
+
+
+def test_repeated_visits_with_one_leg_always_alike():
+    # leg 1 reads the same everywhere (100 rows within the tolerance of each other in it: the
+    # k-d tree path); legs 2-6 pair rows 2k and 2k + 1 (0.004 apart), the pairs 1 mm apart
+    r = np.zeros((100, 6))
+    r[:, 1:] = (np.arange(100) // 2)[:, None] * 1.0
+    r[1::2, 2] += 0.004
+    groups = repeated_visits(r, 0.005)
+    assert groups.tolist() == (np.arange(100) // 2).tolist()

@@ -45,16 +45,43 @@ def repeated_visits(readings: ArrayLike, tolerance: float) -> NDArray[np.intp]:
     """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
 
     r = np.asarray(readings, dtype=float).reshape(-1, 6)
     if not tolerance >= 0:
         raise InputError(f"the tolerance of repeated visits must be >= 0, got {tolerance}")
-    pairs = cKDTree(r).query_pairs(tolerance, p=np.inf, output_type="ndarray")
+    pairs = _close_pairs(r, tolerance)
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(r), len(r)))
     labels = connected_components(graph, directed=False)[1]
     _, first, inverse = np.unique(labels, return_index=True, return_inverse=True)
     return np.argsort(np.argsort(first))[inverse]
+
+
+#: Above this many rows within the tolerance of one row in the first reading, the pairs are
+#: found by a k-d tree instead of the sweep.
+_SWEEP_WIDTH = 64
+
+
+def _close_pairs(r: NDArray[np.float64], tolerance: float) -> NDArray[np.intp]:
+    """The pairs of rows ``(i, j)`` whose readings all agree within ``tolerance``: a sweep
+    over the rows sorted by the first reading, one vectorised comparison per offset within
+    the window that reading allows (repeated visits make it as wide as the visits), or a k-d
+    tree when that window is wide."""
+    order = np.argsort(r[:, 0], kind="stable")
+    first = r[order, 0]
+    width = int(
+        np.max(np.searchsorted(first, first + tolerance, side="right") - np.arange(len(r)), initial=1)
+    )
+    if width > _SWEEP_WIDTH:
+        from scipy.spatial import cKDTree
+
+        return cKDTree(r).query_pairs(tolerance, p=np.inf, output_type="ndarray")
+    sorted_r = r[order]
+    found = []
+    for k in range(1, width):
+        close = np.all(np.abs(sorted_r[k:] - sorted_r[:-k]) <= tolerance, axis=1)
+        i = np.flatnonzero(close)
+        found.append(np.column_stack([order[i], order[i + k]]))
+    return np.concatenate(found) if found else np.zeros((0, 2), dtype=np.intp)
 
 
 def _wrap(angles: NDArray) -> NDArray:

@@ -106,7 +106,7 @@ def circle_plane(positions: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.
     """
     p = np.asarray(positions, dtype=float).reshape(-1, 3)
     origin = p.mean(axis=0)
-    normal = np.linalg.svd(p - origin)[2][-1]
+    normal = np.linalg.svd(p - origin, full_matrices=False)[2][-1]
     normal = normal * np.sign(normal[np.argmax(np.abs(normal))])
     base = np.eye(3)[1 if int(np.argmax(np.abs(normal))) == 0 else 0]
     u = base - (base @ normal) * normal
