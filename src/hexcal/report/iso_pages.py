@@ -24,8 +24,8 @@ ISO_CAPTIONS = {
     "Each plot has its own scale, stated above it (µm per division), as ballbar software does.",
 }
 
-#: The definitions the page states (docs/iso-tests.md has them in full).
-DEFINITIONS = (
+#: The definitions the page states, by test (docs/iso-tests.md has them in full).
+CIRCLE_DEFINITIONS = (
     "F (radial deviation): largest and smallest deviation of the actual path from the nominal circle, "
     "about the commanded centre.",
     "G (circular deviation): radial separation of the two concentric circles, centred on the actual "
@@ -33,6 +33,10 @@ DEFINITIONS = (
     "H (circular hysteresis): largest radial difference between the CW and CCW runs at one angle.",
     "Before: the readings through the nominal model; after: what the calibrated model does not explain "
     "(what compensation leaves, to first order).",
+)
+POSE_DEFINITIONS = (
+    "Commanded pose: the forward kinematics of the readings through each geometry; attained pose: the "
+    "instrument's.",
     "AP (ISO 9283 pose accuracy): barycentre of the attained poses minus the commanded pose; RP_l = "
     "l̄ + 3 S_l (l_j distance to the barycentre, S_l with n - 1); RP_a = ±3 S_a per angle.",
 )
@@ -83,7 +87,7 @@ def iso_page(report: Mapping[str, Any]) -> str:
         tables = []
         for name, table in stats.items():
             tables.append(f"<h3>{esc(labels.get(name, name))}</h3>")
-            tables.append(data_table(POSE_COLUMNS, pose_rows(table), digits=4, table_id=f"iso9283-{name}"))
+            tables.append(data_table(POSE_COLUMNS, pose_rows(table), digits=3, table_id=f"iso9283-{name}"))
         tol = data.get("visit_tolerance_mm")
         note = (
             f'<p class="muted">Visits of one commanded pose: leg readings within {tol:g} mm.</p>'
@@ -100,7 +104,8 @@ def iso_page(report: Mapping[str, Any]) -> str:
         columns = ("", *(labels.get(n, n) for n in validation))
         table = data_table(columns, summary_rows(validation), sortable=False, table_id="summary-table")
         sections.append(section("Validation summary", table, "summary"))
-    items = "".join(f"<li>{esc(text)}</li>" for text in DEFINITIONS)
+    definitions = CIRCLE_DEFINITIONS if circles else POSE_DEFINITIONS
+    items = "".join(f"<li>{esc(text)}</li>" for text in definitions)
     sections.append(section("Definitions", f"<ul>{items}</ul>", "definitions"))
     sections.append(section("Inputs", inputs_table(report.get("inputs", {})), "inputs"))
     return html_page(report.get("title", "hexcal ISO tests"), sections, report.get("subtitle", ""))
