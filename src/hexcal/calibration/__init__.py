@@ -14,6 +14,10 @@ Public names
 - ``diagnose``, ``Quality``: the likely cause of a bad fit (degrees, gains, Euler sequence...).
 - ``predicted_pose_accuracy``, ``predicted_pose_errors``, ``pose_error_map``: the predicted
   pose accuracy after calibration.
+- ``circular_test``, ``CircularTest``, ``pose_statistics``, ``PoseStatistics``,
+  ``repeated_visits``: the ISO 230-4 circular test and the ISO 9283 pose accuracy and
+  repeatability (docs/iso-tests.md); ``circular_tests``, ``pose_tests``: the same of
+  validations, before and after calibration.
 
 Other names of the lazy map below (limits, Jacobians and registration steps the verdict and
 the planning layer share) are not part of the API.
@@ -24,6 +28,13 @@ from hexcal._lazy import attach
 _NAMES = {
     "AUTO": "identify",
     "BETTER": "diagnosis",
+    "CircularTest": "iso_tests",
+    "PoseStatistics": "iso_poses",
+    "circular_test": "iso_tests",
+    "circular_tests": "iso_validation",
+    "pose_statistics": "iso_poses",
+    "pose_tests": "iso_validation",
+    "repeated_visits": "iso_poses",
     "EULER_SEQUENCES": "diagnosis",
     "FAIL_FACTOR": "verdict",
     "GROSS_FACTOR": "verdict",
@@ -58,16 +69,23 @@ __all__ = [
     "MAX_CHANGE",
     "SEVERITIES",
     "SIGMA_LIMITS",
+    "CircularTest",
+    "PoseStatistics",
     "Quality",
     "Reason",
     "ValidationResult",
     "Verdict",
     "assess",
+    "circular_test",
+    "circular_tests",
     "diagnose",
     "estimate",
     "pose_error_map",
+    "pose_statistics",
+    "pose_tests",
     "predicted_pose_accuracy",
     "predicted_pose_errors",
+    "repeated_visits",
     "validate",
 ]
 

@@ -94,6 +94,7 @@ class ValidationResult:
     value_labels: tuple[str, ...] = ()
     registration: dict[str, Any] | None = None
     expected: dict[str, Any] | None = None
+    measured_poses: NDArray[np.float64] | None = None
 
     def to_dict(self) -> dict[str, object]:
         """Summary and per-observation errors, JSON-ready (mm and rad)."""
@@ -391,6 +392,7 @@ def _merge(parts: list[tuple[NDArray[np.intp], ValidationResult]], m: int, recor
         first.instrument,
         first.value_labels,
         record,
+        measured_poses=stack(lambda r: r.measured_poses),
     )
 
 
@@ -421,4 +423,7 @@ def _evaluate(geometry: Geometry, session: Session) -> ValidationResult:
         position, orientation = pose_errors(fk.poses, measured, geometry.euler)
     errors = {} if inst.determines_pose else inst.errors(setup, fk.poses, values, geometry.euler)
     labels = tuple(label.split()[-1] for label, _ in inst.value_groups())
-    return ValidationResult(ids, residuals, fk.poses, position, orientation, errors, inst.describe(), labels)
+    return ValidationResult(
+        ids, residuals, fk.poses, position, orientation, errors, inst.describe(), labels,
+        measured_poses=measured,
+    )  # fmt: skip

@@ -205,7 +205,7 @@ def cmd_validate(args: argparse.Namespace) -> None:
     from hexcal.io import write_table
     from hexcal.report import render, validation_dict, validation_json, validation_table
 
-    check_outputs(args.out, args.html, args.json)
+    check_outputs(args.out, args.html, args.json, args.polar)
     if args.folds < 2:
         raise CommandError(f"--folds must be at least 2, got {args.folds}")
     geometry = load_geometry(args.geometry, args.euler)
@@ -213,6 +213,9 @@ def cmd_validate(args: argparse.Namespace) -> None:
     if len(sessions) != 1:
         raise CommandError("validate: give one --data file (validate each session on its own)")
     session = sessions[0]
+    from hexcal.cli.iso import check_iso, iso_page, iso_results
+
+    check_iso(args, session)
     options = {"folds": args.folds, "seed": args.seed}
     calibrated = validate(geometry, session, **options)
     nominal = None
@@ -226,6 +229,7 @@ def cmd_validate(args: argparse.Namespace) -> None:
             )
         nominal = validate(load_geometry(args.nominal, geometry.euler), session, **options)
     print(render("validation", validation_dict(calibrated, nominal)))
+    iso = iso_results(args, session, geometry.euler, calibrated, nominal)
     if args.out:
         columns, rows, ids, comment = validation_table(calibrated, nominal, calibrated.ids)
         write_table(args.out, columns, rows, ids, comment=comment, missing=True)
@@ -234,7 +238,11 @@ def cmd_validate(args: argparse.Namespace) -> None:
         from hexcal.io import atomic_write
 
         with atomic_write(args.json) as fh:
-            fh.write(render("validation", validation_json(calibrated, nominal), "json"))
+            fh.write(
+                render(
+                    "validation", validation_json(calibrated, nominal) | ({"iso": iso} if iso else {}), "json"
+                )
+            )
         print(f"wrote the JSON summary to {args.json}")
     if args.html:
         from hexcal.io import atomic_write
@@ -243,7 +251,10 @@ def cmd_validate(args: argparse.Namespace) -> None:
         results = {"calibrated": calibrated} | ({"nominal": nominal} if nominal else {})
         files = _given(geometry=args.geometry, data=args.data, nominal=args.nominal, setup=args.setup)
         with atomic_write(args.html) as fh:
-            fh.write(render_html(validation_report(results, inputs_record(files, args))))
+            if iso:
+                fh.write(iso_page(args, iso, files, calibrated, nominal))
+            else:
+                fh.write(render_html(validation_report(results, inputs_record(files, args))))
         print(f"wrote the HTML report to {args.html}")
 
 
@@ -399,10 +410,13 @@ def register(sub: Any) -> None:
         help="calibrated setup YAML: --data is an instrument export",
     )
     table_options(p, "--data", "; merged with a setup's columns, this option winning")
+    from hexcal.cli.iso import iso_options
+
+    iso_options(p)
     p.set_defaults(
         func=cmd_validate,
         inputs=("geometry", "data", "nominal", "setup"),
-        outputs=("out", "html", "json"),
+        outputs=("out", "html", "json", "polar"),
         folders=(),
     )
 

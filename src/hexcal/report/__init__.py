@@ -39,8 +39,11 @@ Public names
   ``selection_report``: the HTML reports (``--html``), their data and pages.
 - ``study_table``, ``validation_table``, ``errormap_tables``: CSV tables of results.
 - ``plot_parameter_errors``, ``plot_validation_errors``, ``plot_study``,
-  ``plot_selection_study``, ``plot_error_lines``, ``plot_error_angles``: figures written as
-  PNG files.
+  ``plot_selection_study``, ``plot_error_lines``, ``plot_error_angles``,
+  ``plot_polar_deviation``: figures written as PNG files.
+- ``iso_dict``, ``iso_text``, ``iso_report``, ``iso_page``: the ISO 230-4 circular test and
+  the ISO 9283 pose figures (``hexcal validate --iso230-4``, ``--iso9283``) as a dictionary,
+  text and page.
 
 Other names of the lazy map below (the HTML building blocks, figure builders, captions and
 layout constants) are shared with the command line and are not part of the API.
@@ -81,6 +84,10 @@ _NAMES = {
     "identification_summary": "text",
     "identification_text": "text",
     "inputs_table": "html",
+    "iso_dict": "iso_summary",
+    "iso_page": "iso_pages",
+    "iso_report": "iso_pages",
+    "iso_text": "iso_summary",
     "json_text": "jsonout",
     "key_value_table": "html",
     "number": "html",
@@ -95,6 +102,8 @@ _NAMES = {
     "plot_error_angles": "figures",
     "plot_error_lines": "figures",
     "plot_parameter_errors": "figures",
+    "plot_polar_deviation": "figures",
+    "polar_deviation": "figures",
     "plot_selection_study": "figures",
     "plot_study": "figures",
     "plot_validation_errors": "figures",
@@ -140,6 +149,10 @@ __all__ = [
     "identification_report",
     "identification_report_dict",
     "identification_text",
+    "iso_dict",
+    "iso_page",
+    "iso_report",
+    "iso_text",
     "json_text",
     "observability_report",
     "observability_text",
@@ -148,6 +161,7 @@ __all__ = [
     "plot_error_angles",
     "plot_error_lines",
     "plot_parameter_errors",
+    "plot_polar_deviation",
     "plot_selection_study",
     "plot_study",
     "plot_validation_errors",

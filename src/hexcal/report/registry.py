@@ -13,7 +13,7 @@ import importlib
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from hexcal.report import plan, text
+from hexcal.report import iso_summary, plan, text
 from hexcal.report.jsonout import json_text
 
 #: ``(kind, fmt)`` -> renderer of the kind's dictionary.
@@ -42,6 +42,7 @@ TEXT_RENDERERS: dict[str, Callable[..., str]] = {
     "observability": plan.observability_text,
     "select": plan.select_text,
     "claims": plan.claims_text,
+    "iso": iso_summary.iso_text,
 }
 
 for _kind, _renderer in TEXT_RENDERERS.items():
@@ -71,6 +72,7 @@ HTML_PAGES = {
     "observability": "html:tables_page",
     "select": "html:tables_page",
     "tables": "html:tables_page",
+    "iso": "iso_pages:iso_page",
 }
 
 for _kind, _spec in HTML_PAGES.items():

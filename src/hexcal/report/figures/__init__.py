@@ -13,7 +13,8 @@ an HTML page, so that a PNG and a page never show two versions of one figure. Th
 - :mod:`~hexcal.report.figures.poses`: residuals per pose, poses in the workspace, pose
   errors (the validate page and the paper's Fig. 11) and their distributions;
 - :mod:`~hexcal.report.figures.campaigns`: studies of calibration campaigns;
-- :mod:`~hexcal.report.figures.maps`: error maps (the paper's Figs. 4-9).
+- :mod:`~hexcal.report.figures.maps`: error maps (the paper's Figs. 4-9);
+- :mod:`~hexcal.report.figures.polar`: the polar plot of an ISO 230-4 circular test.
 
 Imports numpy, matplotlib, :mod:`hexcal.core` and :mod:`hexcal.report.units`.
 """
@@ -37,6 +38,7 @@ from hexcal.report.figures.parameters import (
     plot_parameter_errors,
     singular_values,
 )
+from hexcal.report.figures.polar import plot_polar_deviation, polar_deviation
 from hexcal.report.figures.poses import (
     plot_validation_errors,
     pose_errors,
@@ -60,9 +62,11 @@ __all__ = [
     "plot_error_angles",
     "plot_error_lines",
     "plot_parameter_errors",
+    "plot_polar_deviation",
     "plot_selection_study",
     "plot_study",
     "plot_validation_errors",
+    "polar_deviation",
     "pose_errors",
     "pose_residuals",
     "save_png",

@@ -1,0 +1,192 @@
+"""``hexcal validate --iso230-4`` on a simulated ball-bar circle, ``--iso9283`` on repeated
+full-pose visits, and the ISO page in a browser.
+
+The machine: the seed paper's hexapod whose joints and ``l0`` are off by up to 0.5 mm (fixed
+seed). It is calibrated by ``hexcal identify`` on 60 random full poses, then a ball bar
+(the toy of ``toy_extensions``, pivot and ball fixed; read through the command line by
+letting the setup file name it) measures a circle of radius 150 mm in the x-y plane,
+counterclockwise then clockwise, every 3°. Before (nominal geometry) the circle is off by
+the machine's errors (hundreds of µm); after (calibrated) only the noise is left, so ``G``
+after must be close to ``G`` of the true geometry itself (the noise's own ``G``) and far below
+``G`` before.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hexcal.io.sessions as io_sessions
+from browser_support import browser, open_report, screenshot  # noqa: F401  (fixture)
+from hexcal.calibration import circular_tests, validate
+from hexcal.cli.main import main
+from hexcal.core import NoiseModel, preset, random_poses
+from hexcal.instruments import FullPoseModel
+from hexcal.io import save_geometry, write_session_data
+from hexcal.simulation import simulate_session
+from toy_extensions import BallBar, registered
+
+NOISE = NoiseModel(leg=0.001, position=0.001, orientation=1e-6, distribution="normal")
+PIVOT, BALL = [0.0, 0.0, 700.0], [0.0, 0.0, -100.0]  # the ball at z = 700 when the platform is at 800
+RADIUS = 150.0
+
+
+def machines():
+    nominal = preset("paper-hmt")
+    vector = nominal.machine_vector()
+    vector[:42] += np.random.default_rng(5).uniform(-0.5, 0.5, 42)
+    return nominal, nominal.with_machine_vector(vector)
+
+
+def circle_poses(step: float = 3.0) -> np.ndarray:
+    t = np.radians(np.r_[np.arange(0, 360, step), np.arange(360, 0, -step)])
+    poses = np.zeros((len(t), 6))
+    poses[:, 0], poses[:, 1], poses[:, 2] = RADIUS * np.cos(t), RADIUS * np.sin(t), 800.0
+    return poses
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory):
+    """Files: nominal and calibrated geometries, the circle and its ball-bar setup, full-pose
+    repeated visits; plus the circle session and the true machine for reference values."""
+    tmp = tmp_path_factory.mktemp("iso")
+    nominal, true = machines()
+    save_geometry(nominal, tmp / "nominal.yaml")
+    cal = simulate_session(nominal, true, FullPoseModel(), random_poses(nominal, 60, 1), NOISE, 2)
+    write_session_data(tmp / "cal.csv", cal, nominal.euler)
+    assert main(["identify", "--geometry", str(tmp / "nominal.yaml"), "--data", str(tmp / "cal.csv"),
+                 "--out", str(tmp / "calibrated.yaml"), "--noise", "leg=0.001,pos=0.001,ang=1e-6",
+                 "--noise-dist", "normal"]) == 0  # fmt: skip
+    with registered():
+        bar = BallBar(PIVOT, BALL, fixed=("pivot", "ball"))
+        circle = simulate_session(nominal, true, bar, circle_poses(), NOISE, 3)
+        write_session_data(tmp / "circle.csv", circle, nominal.euler)
+        (tmp / "ballbar.yaml").write_text("# the toy ball bar (pivot and ball fixed), named by the test\n")
+        # five commanded poses visited six times each, in turn (the same leg readings)
+        poses = np.tile(random_poses(nominal, 5, 7), (6, 1))
+        visits = simulate_session(nominal, true, FullPoseModel(), poses, NOISE, 4)
+        write_session_data(tmp / "visits.csv", visits, nominal.euler)
+    return {"tmp": tmp, "nominal": nominal, "true": true, "circle": circle, "bar": bar}
+
+
+@pytest.fixture
+def ballbar_setup(campaign, monkeypatch):
+    """The command line reads ``ballbar.yaml`` as the toy ball bar (setup files have no ball-bar
+    kind until the real instrument lands); every other setup as usual."""
+    load = io_sessions.load_setup
+
+    def load_setup(path, *args, **kwargs):
+        if Path(path).name == "ballbar.yaml":
+            return campaign["bar"]
+        return load(path, *args, **kwargs)
+
+    monkeypatch.setattr(io_sessions, "load_setup", load_setup)
+    with registered():
+        yield
+
+
+@pytest.fixture
+def circle_run(campaign, ballbar_setup, capsys):
+    tmp = campaign["tmp"]
+    code, out, err = run(
+        capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--nominal", tmp / "nominal.yaml",
+        "--data", tmp / "circle.csv", "--setup", tmp / "ballbar.yaml", "--iso230-4",
+        "--json", tmp / "iso.json", "--html", tmp / "iso.html", "--polar", tmp / "polar.png",
+    )  # fmt: skip
+    assert code == 0, err
+    return out, json.loads((tmp / "iso.json").read_text())
+
+
+def test_circle_before_and_after(campaign, circle_run):
+    out, body = circle_run
+    tests = body["iso"]["iso230_4"]
+    before, after = tests["nominal"], tests["calibrated"]
+    assert set(before["runs"]) == {"ccw", "cw", "both"} and before["runs"]["ccw"]["points"] == 120
+    assert before["nominal_radius_mm"] == pytest.approx(RADIUS, abs=1e-3)
+    # the noise's own G: the same circle judged by the true machine
+    s = campaign["circle"]
+    truth = circular_tests(s, {"true": validate(campaign["true"], s)}, campaign["nominal"].euler)["true"]
+    for run_name in ("ccw", "cw"):
+        g_before = before["runs"][run_name]["circular_deviation_mm"]
+        g_after = after["runs"][run_name]["circular_deviation_mm"]
+        g_noise = truth.runs[run_name].g
+        assert g_before > 10 * g_after, (g_before, g_after)
+        assert g_after < 1.5 * g_noise + 0.002, (g_after, g_noise)  # only what the noise makes
+    # H compares the runs at the same commanded points: the same for every geometry (no model
+    # hysteresis in the simulation), the noise's
+    assert before["circular_hysteresis_mm"] == pytest.approx(truth.hysteresis, rel=1e-6)
+    assert "circular deviation G, CCW (µm)" in out and "after (calibrated)" in out
+    assert (campaign["tmp"] / "polar.png").stat().st_size > 10_000
+    page = (campaign["tmp"] / "iso.html").read_text()
+    assert 'data-figure="polar"' in page and "µm/div" in page and "Validation summary" in page
+
+
+def test_the_iso_page_in_the_browser(browser, campaign, circle_run):  # noqa: F811
+    opened = open_report(browser, campaign["tmp"] / "iso.html")
+    try:
+        assert not opened.page_errors and not opened.console_errors and not opened.blocked
+        figure = opened.page.locator('figure[data-figure="polar"] svg')
+        box = figure.bounding_box()
+        assert box is not None and box["width"] > 600  # the two polar plots side by side
+        rows = opened.page.locator("#iso230-4-table tbody tr")
+        assert rows.count() == 3 * 6 + 1  # G, F max, F min, radius error, centre u, v per run; H
+        screenshot(opened, "iso230-4-report")
+    finally:
+        opened.page.context.close()
+
+
+def test_the_option_refuses_other_instruments(campaign, ballbar_setup, capsys):
+    tmp = campaign["tmp"]
+    cal = tmp / "calibrated.yaml"
+    code, _, err = run(capsys, "validate", "--geometry", cal, "--data", tmp / "visits.csv",
+                       "--iso230-4", "--json", tmp / "refused.json")  # fmt: skip
+    assert code != 0 and "one distance per observation" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp / "refused.json").exists()
+    code, _, err = run(capsys, "validate", "--geometry", cal, "--data", tmp / "circle.csv",
+                       "--setup", tmp / "ballbar.yaml", "--iso9283")  # fmt: skip
+    assert code != 0 and "platform pose" in err
+    code, _, err = run(capsys, "validate", "--geometry", cal, "--data", tmp / "visits.csv",
+                       "--polar", tmp / "p.png")  # fmt: skip
+    assert code != 0 and "--iso230-4" in err and not (tmp / "p.png").exists()
+    code, _, err = run(capsys, "validate", "--geometry", cal, "--data", tmp / "visits.csv",
+                       "--visit-tolerance", "0.1")  # fmt: skip
+    assert code != 0 and "give --iso9283" in err
+
+
+def test_a_free_ball_bar_is_refused(campaign, monkeypatch, capsys):
+    monkeypatch.setattr(io_sessions, "load_setup", lambda *a, **k: BallBar(PIVOT, BALL))
+    tmp = campaign["tmp"]
+    with registered():
+        code, _, err = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--data",
+                           tmp / "circle.csv", "--setup", tmp / "ballbar.yaml", "--iso230-4")  # fmt: skip
+    assert code != 0 and "must fix its quantities" in err
+
+
+def test_iso9283_on_repeated_visits(campaign, capsys):
+    tmp = campaign["tmp"]
+    cal = tmp / "calibrated.yaml"
+    code, out, err = run(capsys, "validate", "--geometry", cal, "--nominal", tmp / "nominal.yaml",
+                         "--data", tmp / "visits.csv", "--iso9283", "--json", tmp / "p.json",
+                         "--html", tmp / "p.html")  # fmt: skip
+    assert code == 0, err
+    stats = json.loads((tmp / "p.json").read_text())["iso"]["iso9283"]
+    after, before = stats["calibrated"]["poses"], stats["nominal"]["poses"]
+    assert [p["visits"] for p in after] == [6] * 5
+    # AP after: the barycentre of six noisy poses against the calibrated model, a few µm; before:
+    # the machine's errors (a tenth of a mm or more)
+    assert max(p["AP_p_mm"] for p in after) < 0.02 < min(p["AP_p_mm"] for p in before)
+    # RP depends on the attained poses only: the same for both geometries
+    assert [p["RP_l_mm"] for p in after] == pytest.approx([p["RP_l_mm"] for p in before])
+    assert "RP_l (mm)" in out and "visited more than once" in out
+    assert "ISO 9283 pose accuracy and repeatability" in (tmp / "p.html").read_text()
+    code, out, _ = run(capsys, "validate", "--geometry", cal, "--data", tmp / "cal.csv", "--iso9283")
+    assert code == 0 and "ISO 9283: no commanded pose is visited twice" in out
