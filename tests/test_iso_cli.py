@@ -3,8 +3,8 @@ full-pose visits, and the ISO page in a browser.
 
 The machine: the seed paper's hexapod whose joints and ``l0`` are off by up to 0.5 mm (fixed
 seed). It is calibrated by ``hexcal identify`` on 60 random full poses, then a ball bar
-(the toy of ``toy_extensions``, pivot and ball fixed; read through the command line by
-letting the setup file name it) measures a circle of radius 150 mm in the x-y plane,
+(hexcal's ballbar, its setup file holding pivot, ball and length fixed) measures a circle of
+radius 150 mm in the x-y plane,
 counterclockwise then clockwise, every 3°. Before (nominal geometry) the circle is off by
 the machine's errors (hundreds of µm); after (calibrated) only the noise is left, so ``G``
 after must be close to ``G`` of the true geometry itself (the noise's own ``G``) and far below
@@ -14,20 +14,17 @@ after must be close to ``G`` of the true geometry itself (the noise's own ``G``)
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-import hexcal.io.sessions as io_sessions
 from browser_support import browser, open_report, screenshot  # noqa: F401  (fixture)
 from hexcal.calibration import circular_tests, validate
 from hexcal.cli.main import main
 from hexcal.core import NoiseModel, preset, random_poses
-from hexcal.instruments import FullPoseModel
+from hexcal.instruments import BallbarModel, BallbarSetup, FullPoseModel
 from hexcal.io import save_geometry, write_session_data
 from hexcal.simulation import simulate_session
-from toy_extensions import BallBar, registered
 
 NOISE = NoiseModel(leg=0.001, position=0.001, orientation=1e-6, distribution="normal")
 PIVOT, BALL = [0.0, 0.0, 700.0], [0.0, 0.0, -100.0]  # the ball at z = 700 when the platform is at 800
@@ -66,36 +63,21 @@ def campaign(tmp_path_factory):
     assert main(["identify", "--geometry", str(tmp / "nominal.yaml"), "--data", str(tmp / "cal.csv"),
                  "--out", str(tmp / "calibrated.yaml"), "--noise", "leg=0.001,pos=0.001,ang=1e-6",
                  "--noise-dist", "normal"]) == 0  # fmt: skip
-    with registered():
-        bar = BallBar(PIVOT, BALL, fixed=("pivot", "ball"))
-        circle = simulate_session(nominal, true, bar, circle_poses(), NOISE, 3)
-        write_session_data(tmp / "circle.csv", circle, nominal.euler)
-        (tmp / "ballbar.yaml").write_text("# the toy ball bar (pivot and ball fixed), named by the test\n")
-        # five commanded poses visited six times each, in turn (the same leg readings)
-        poses = np.tile(random_poses(nominal, 5, 7), (6, 1))
-        visits = simulate_session(nominal, true, FullPoseModel(), poses, NOISE, 4)
-        write_session_data(tmp / "visits.csv", visits, nominal.euler)
+    bar = BallbarModel(BallbarSetup(PIVOT, BALL, RADIUS, fixed=("pivot", "ball", "length")))
+    circle = simulate_session(nominal, true, bar, circle_poses(), NOISE, 3)
+    write_session_data(tmp / "circle.csv", circle, nominal.euler)
+    setup = f"units: mm\nballbar: {{pivot: {PIVOT}, ball: {BALL}, length: {RADIUS}}}\n"
+    (tmp / "ballbar.yaml").write_text(setup + "fixed: [pivot, ball, length]\n")
+    (tmp / "free-ballbar.yaml").write_text(setup)
+    # five commanded poses visited six times each, in turn (the same leg readings)
+    poses = np.tile(random_poses(nominal, 5, 7), (6, 1))
+    visits = simulate_session(nominal, true, FullPoseModel(), poses, NOISE, 4)
+    write_session_data(tmp / "visits.csv", visits, nominal.euler)
     return {"tmp": tmp, "nominal": nominal, "true": true, "circle": circle, "bar": bar}
 
 
 @pytest.fixture
-def ballbar_setup(campaign, monkeypatch):
-    """The command line reads ``ballbar.yaml`` as the toy ball bar (setup files have no ball-bar
-    kind until the real instrument lands); every other setup as usual."""
-    load = io_sessions.load_setup
-
-    def load_setup(path, *args, **kwargs):
-        if Path(path).name == "ballbar.yaml":
-            return campaign["bar"]
-        return load(path, *args, **kwargs)
-
-    monkeypatch.setattr(io_sessions, "load_setup", load_setup)
-    with registered():
-        yield
-
-
-@pytest.fixture
-def circle_run(campaign, ballbar_setup, capsys):
+def circle_run(campaign, capsys):
     tmp = campaign["tmp"]
     code, out, err = run(
         capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--nominal", tmp / "nominal.yaml",
@@ -144,7 +126,7 @@ def test_the_iso_page_in_the_browser(browser, campaign, circle_run):  # noqa: F8
         opened.page.context.close()
 
 
-def test_the_option_refuses_other_instruments(campaign, ballbar_setup, capsys):
+def test_the_option_refuses_other_instruments(campaign, capsys):
     tmp = campaign["tmp"]
     cal = tmp / "calibrated.yaml"
     code, _, err = run(capsys, "validate", "--geometry", cal, "--data", tmp / "visits.csv",
@@ -162,12 +144,10 @@ def test_the_option_refuses_other_instruments(campaign, ballbar_setup, capsys):
     assert code != 0 and "give --iso9283" in err
 
 
-def test_a_free_ball_bar_is_refused(campaign, monkeypatch, capsys):
-    monkeypatch.setattr(io_sessions, "load_setup", lambda *a, **k: BallBar(PIVOT, BALL))
+def test_a_free_ball_bar_is_refused(campaign, capsys):
     tmp = campaign["tmp"]
-    with registered():
-        code, _, err = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--data",
-                           tmp / "circle.csv", "--setup", tmp / "ballbar.yaml", "--iso230-4")  # fmt: skip
+    code, _, err = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--data",
+                       tmp / "circle.csv", "--setup", tmp / "free-ballbar.yaml", "--iso230-4")  # fmt: skip
     assert code != 0 and "must fix its quantities" in err
 
 

@@ -19,7 +19,8 @@ import argparse
 import math
 from typing import Any
 
-from hexcal.cli.common import CommandError, check_outputs, choice, load_geometry, parse_noise
+from hexcal.cli.common import CommandError, check_outputs, choice, load_geometry
+from hexcal.cli.noise import parse_noise
 
 
 def _pivots(text: str | None) -> Any:
