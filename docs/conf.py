@@ -72,5 +72,6 @@ html_theme = "furo"
 html_title = f"hexcal {release}"
 html_static_path: list[str] = []
 
-# the figures matplotlib draws in notebooks: no display
-os.environ.setdefault("MPLBACKEND", "Agg")
+# the tutorials' data: the Jugglebot sessions of the test data (a notebook run alone finds
+# them relative to docs/tutorials/)
+os.environ.setdefault("HEXCAL_JUGGLEBOT", str(HERE.parent / "tests" / "data" / "jugglebot"))

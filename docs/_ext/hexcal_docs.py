@@ -1,6 +1,7 @@
 """hexcal's own Sphinx glue: the user guide's page list and references to existing objects.
 
-- ``index.md`` holds the marker ``%GUIDE_PAGES%`` inside its user-guide toctree: it is
+- ``index.md`` holds the marker ``%GUIDE_PAGES%`` inside its user-guide toctree (and
+  ``%TUTORIAL_PAGES%`` in the tutorials', likewise for ``docs/tutorials/*.md``): it is
   replaced by the guide pages in the order of :data:`GUIDE_ORDER`, then every other
   ``docs/*.md`` page that no other toctree of the start page names, alphabetically. A page
   added to ``docs/`` therefore joins the user guide (one click from the start page) with no
@@ -47,6 +48,10 @@ ELSEWHERE = {"index", "getting-started", "theory", "api", "changelog"}
 
 MARKER = "%GUIDE_PAGES%"
 
+#: The tutorials in reading order; any other ``docs/tutorials/*.md`` follows, alphabetically.
+TUTORIAL_ORDER = ("paper", "tracker-linuxcnc", "jugglebot", "monte-carlo")
+TUTORIAL_MARKER = "%TUTORIAL_PAGES%"
+
 
 def guide_pages(docs: Path) -> list[str]:
     """The user guide's page names: :data:`GUIDE_ORDER` first, then any other top-level page."""
@@ -55,9 +60,18 @@ def guide_pages(docs: Path) -> list[str]:
     return ordered + sorted(present - set(ordered))
 
 
+def tutorial_pages(docs: Path) -> list[str]:
+    """The tutorials' page names (``tutorials/...``): :data:`TUTORIAL_ORDER`, then any other."""
+    present = {p.stem for p in (docs / "tutorials").glob("*.md")} - {"README"}
+    ordered = [name for name in TUTORIAL_ORDER if name in present]
+    return [f"tutorials/{name}" for name in ordered + sorted(present - set(ordered))]
+
+
 def _fill_guide(app: Any, docname: str, source: list[str]) -> None:
-    if docname == "index" and MARKER in source[0]:
-        source[0] = source[0].replace(MARKER, "\n".join(guide_pages(Path(app.srcdir))))
+    if docname == "index":
+        docs = Path(app.srcdir)
+        source[0] = source[0].replace(MARKER, "\n".join(guide_pages(docs)))
+        source[0] = source[0].replace(TUTORIAL_MARKER, "\n".join(tutorial_pages(docs)))
 
 
 @cache
