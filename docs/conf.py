@@ -41,7 +41,8 @@ master_doc = "index"
 # broken references fail the build; a reference to a Python object that exists but has no
 # page of its own (an internal module, a numpy type) is shown as code (hexcal_docs)
 nitpicky = True
-suppress_warnings: list[str] = []
+# a code block in a language Pygments cannot highlight is shown as plain text, not an error
+suppress_warnings = ["misc.highlighting_failure"]
 
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3

@@ -29,6 +29,8 @@ def test_every_page_of_docs_is_in_a_list_of_the_start_page():
         assert f"\n{other}\n" in index, other
         listed.add(other)
     pages = {p.stem for p in DOCS.glob("*.md")} - {"index"}
+    pages |= {p.relative_to(DOCS).with_suffix("").as_posix() for p in DOCS.glob("*/**/*.md")
+              if p.relative_to(DOCS).parts[0] not in ext.OWN_FOLDERS}
     pages |= {f"tutorials/{p.stem}" for p in (DOCS / "tutorials").glob("*.md")}
     assert pages <= listed, pages - listed
 
@@ -40,7 +42,9 @@ def test_a_new_page_joins_the_user_guide_after_the_known_ones(tmp_path):
     (tmp_path / "tutorials").mkdir()
     for name in ("zeta", "paper"):
         (tmp_path / "tutorials" / f"{name}.md").write_text("# t\n", encoding="utf-8")
-    assert ext.guide_pages(tmp_path) == ["commands", "formats", "ballbar", "iso-tests"]
+    (tmp_path / "guide").mkdir()
+    (tmp_path / "guide" / "deep.md").write_text("# deep\n", encoding="utf-8")
+    assert ext.guide_pages(tmp_path) == ["commands", "formats", "ballbar", "iso-tests", "guide/deep"]
     assert ext.tutorial_pages(tmp_path) == ["tutorials/paper", "tutorials/zeta"]
 
 

@@ -53,11 +53,21 @@ TUTORIAL_ORDER = ("paper", "tracker-linuxcnc", "jugglebot", "monte-carlo")
 TUTORIAL_MARKER = "%TUTORIAL_PAGES%"
 
 
+#: Folders of docs/ whose pages are listed elsewhere (or are no pages).
+OWN_FOLDERS = {"api", "tutorials", "_build", "_ext", "_static", "_templates"}
+
+
 def guide_pages(docs: Path) -> list[str]:
-    """The user guide's page names: :data:`GUIDE_ORDER` first, then any other top-level page."""
+    """The user guide's page names: :data:`GUIDE_ORDER` first, then any other page of docs/
+    (top level first, then pages in sub-folders other than :data:`OWN_FOLDERS`)."""
     present = {p.stem for p in docs.glob("*.md")} - ELSEWHERE - {"README"}
     ordered = [name for name in GUIDE_ORDER if name in present]
-    return ordered + sorted(present - set(ordered))
+    nested = sorted(
+        p.relative_to(docs).with_suffix("").as_posix()
+        for p in docs.glob("*/**/*.md")
+        if p.relative_to(docs).parts[0] not in OWN_FOLDERS and not p.name.startswith(".")
+    )
+    return ordered + sorted(present - set(ordered)) + nested
 
 
 def tutorial_pages(docs: Path) -> list[str]:
