@@ -17,6 +17,7 @@ from __future__ import annotations
 import builtins
 import importlib
 import pkgutil
+import re
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -194,7 +195,21 @@ def _inline_attribute_types(app: Any, what: str, name: str, obj: Any, options: A
     lines[:] = kept
 
 
+_FORWARD_REF = re.compile(r"TypeAliasForwardRef\('(?:[\w.]+\.)?(\w+)'\)")
+
+
+def _alias_names(app: Any, what: str, name: str, obj: Any, options: Any, signature: str | None,
+                 return_annotation: str | None) -> tuple[str | None, str | None]:
+    """``NDArray | None`` as written: autodoc shows a bare alias in a union as its forward
+    reference object, ``TypeAliasForwardRef('numpy.typing.NDArray')``."""
+    def fix(text: str | None) -> str | None:
+        return _FORWARD_REF.sub(r"\1", text) if text else text
+
+    return fix(signature), fix(return_annotation)
+
+
 def setup(app: Any) -> dict[str, Any]:
+    app.connect("autodoc-process-signature", _alias_names)
     app.connect("autodoc-process-docstring", _inline_attribute_types, priority=600)
     from pygments.lexers.special import TextLexer
 
