@@ -23,7 +23,7 @@ demo: $(STAMP)
 	$(BIN)/hexcal paper --out results/paper
 
 test: $(STAMP)
-	$(BIN)/python -m ruff check src tests $(wildcard benchmarks)
+	$(BIN)/python -m ruff check src tests $(wildcard benchmarks) docs/conf.py docs/_ext
 	$(BIN)/python -m pytest -q
 
 test-slow: $(STAMP)
