@@ -47,3 +47,10 @@ def test_the_command_prints_it_too():
 
 def test_the_changelog_s_newest_entry_is_the_version():
     assert newest_changelog_version() == version("hexcal")
+
+
+def test_the_citation_files_name_the_version():
+    cff = (ROOT / "CITATION.cff").read_text(encoding="utf-8")
+    assert re.search(rf"^version: {re.escape(version('hexcal'))}$", cff, flags=re.M)
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert f"version = {{{version('hexcal')}}}" in readme
