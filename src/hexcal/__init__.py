@@ -85,7 +85,18 @@ if _sys.argv[:1] == ["-m"] or _os.path.basename(_sys.argv[0] if _sys.argv else "
 
 from hexcal._lazy import attach  # noqa: E402
 
-__version__ = "0.1.0"
+
+def _package_version() -> str:
+    """The installed distribution's version: pyproject.toml's ``version`` is its one source."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("hexcal")
+    except PackageNotFoundError:  # imported from a source tree that was never installed
+        return "0+unknown"
+
+
+__version__ = _package_version()
 
 # public name -> the layer package that exports it (each layer resolves its own submodule)
 _PUBLIC = {

@@ -134,7 +134,7 @@ def estimate(
         Parameter groups to vary (``joints``, ``l0``, ``gains``, ``frame``, ``tool``,
         ``targets``, ...) and names or groups to hold, instead of ``mask``.
     robust : bool
-        Leave out outliers (:func:`hexcal.estimation.outliers.identify_robust`, with this
+        Leave out outliers (:func:`hexcal.estimation.robust.identify_robust`, with this
         estimator); what was left out is in ``result.outliers``.
     diagnose : bool, optional
         Check every observation for implausible residuals (``result.flagged``); default

@@ -48,12 +48,25 @@ class Parser(argparse.ArgumentParser):
         sys.exit(safety.USAGE_STATUS)
 
 
+def package_version() -> str:
+    """hexcal's version, from the installed package's metadata (pyproject.toml's ``version``)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("hexcal")
+    except PackageNotFoundError:  # a source tree that was never installed
+        return "0+unknown"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``hexcal`` parser with every subcommand, in the order of ``hexcal --help``."""
     parser = Parser(
         prog="hexcal",
         description="Kinematic calibration of hexapods (Stewart-Gough platforms).",
         epilog=EPILOG,
+    )
+    parser.add_argument(
+        "--version", action="version", version=f"hexcal {package_version()}", help="print hexcal's version"
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
     for group in (kinematics, calibrate, compensation, plan, simulate, study, linuxcnc):

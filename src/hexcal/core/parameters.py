@@ -136,7 +136,7 @@ class ParameterSet:
         cls, values: ArrayLike, fit: str | Sequence[str] = DEFAULT_FIT, fix: Iterable[str] = ()
     ) -> ParameterSet:
         """The 48 parameters of a machine with linear legs, values a 48-vector, vary flags from
-        ``fit``/``fix`` (any leg model: :func:`machine_parameters`)."""
+        ``fit``/``fix`` (any leg model: :meth:`hexcal.core.Geometry.machine_parameters`)."""
         values = np.asarray(values, dtype=float)
         if values.shape != (N_ALL_PARAMETERS,):
             raise UsageError(f"machine parameter values must have shape (48,), got {values.shape}")
@@ -179,7 +179,7 @@ class ParameterSet:
         return block in self.blocks
 
     def free_in(self, block: str) -> NDArray[np.bool_]:
-        """Which parameters of a block are varied (the block's slice of :attr:`vary`)."""
+        """Which parameters of a block are varied (the block's slice of ``vary``)."""
         return np.array(self.vary[self.span(block)])
 
     def select(self, fit: str | Sequence[str] = DEFAULT_FIT, fix: Iterable[str] = ()) -> ParameterSet:

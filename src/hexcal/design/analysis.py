@@ -43,7 +43,7 @@ class PoseSetAnalysis:
         Parameters that take part in a lost combination.
     std_bound, std_estimator : ndarray, shape (n,)
         Predicted standard deviation of every parameter: Cramér–Rao bound and the
-        unweighted least-squares estimator of :func:`hexcal.estimation.identify`
+        unweighted least-squares estimator of :func:`hexcal.calibration.estimate`
         (``method``); inf where not identifiable.
     mean_error_bound, mean_error_estimator : float
         :func:`mean_abs_error` of the two, mm (inf when any length parameter is lost).

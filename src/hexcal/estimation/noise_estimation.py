@@ -285,7 +285,7 @@ class NoiseEstimate:
 
     @property
     def noises(self) -> tuple[NoiseModel, ...]:
-        """The estimated noise of each session as normal :class:`NoiseModel`s."""
+        """The estimated noise of each session as normal :class:`NoiseModel` objects."""
         sessions = 1 + max((k for k, _ in self.keys), default=0)
         return _session_noises(self.keys, self.sigmas, sessions)
 

@@ -49,7 +49,7 @@ def read_export(
     columns: Mapping[str, str] | None = None,
     max_rows: int | None = MEASUREMENT_MAX_ROWS,
 ) -> Table:
-    """A table from an instrument export (the rules of :func:`~hexcal.io.tables.read_table`)."""
+    """A table from an instrument export (the rules of :func:`~hexcal.io.table_reading.read_table`)."""
     return read_table(path, max_rows, delimiter, decimal, columns)
 
 
@@ -98,7 +98,7 @@ def read_target_measurements(
     """A target measurement file: leg readings, target positions (instrument frame), ids.
 
     ``delimiter``, ``decimal``, ``columns`` and ``max_rows`` (default 100,000; ``--max-rows``)
-    as for :func:`~hexcal.io.tables.read_table`.
+    as for :func:`~hexcal.io.table_reading.read_table`.
     """
     if setup.kind != "targets":
         raise InputError(f"{path}: the setup has a tool, not targets: read the file as tool poses")
@@ -157,6 +157,8 @@ def parse_column_map(text: str) -> dict[str, str]:
         One line naming the problem: an item without ``=``, an empty name, an unknown
         hexcal name, a hexcal name given twice, a file column mapped twice.
 
+    Examples
+    --------
     >>> parse_column_map("x=position_x, y=position_y")
     {'x': 'position_x', 'y': 'position_y'}
     """

@@ -28,7 +28,8 @@ WEAK_SINGULAR_VALUE = 1e-4
 
 
 def paper_text(summary: dict[str, Any]) -> str:
-    """Text table of a Table I summary (:func:`hexcal.report.paper_summary`) beside the paper."""
+    """Text table of a Table I summary (:meth:`hexcal.simulation.PaperExperiment.to_dict`) beside
+    the paper."""
     t = summary["trials"]
     lines = [
         f"Table I: mean absolute error of the 42 parameters (mm), {t} trials; "
@@ -395,7 +396,7 @@ def _expected_lines(expected: dict[str, Any] | None) -> list[str]:
 
 
 def format_paper_summary(summary: dict[str, Any]) -> str:
-    """Text table of :func:`hexcal.report.paper_summary` (same as :func:`paper_text`)."""
+    """Text table of :meth:`hexcal.simulation.PaperExperiment.to_dict` (same as :func:`paper_text`)."""
     return paper_text(summary)
 
 

@@ -1,0 +1,55 @@
+"""The documentation site's page lists (docs/_ext/hexcal_docs.py), without building it.
+
+The build itself (``make docs``: every page, the API reference, the executed tutorials, with
+warnings as errors) runs in CI after the tests; these checks say that a page added to docs/
+joins the start page by itself, and that the start page keeps the markers that list them.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+
+def load_extension():
+    spec = importlib.util.spec_from_file_location("hexcal_docs", DOCS / "_ext" / "hexcal_docs.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_page_of_docs_is_in_a_list_of_the_start_page():
+    ext = load_extension()
+    index = (DOCS / "index.md").read_text(encoding="utf-8")
+    assert ext.MARKER in index and ext.TUTORIAL_MARKER in index
+    listed = set(ext.guide_pages(DOCS)) | set(ext.tutorial_pages(DOCS))
+    for other in ext.ELSEWHERE - {"index"}:  # the pages the start page names itself
+        assert f"\n{other}\n" in index, other
+        listed.add(other)
+    pages = {p.stem for p in DOCS.glob("*.md")} - {"index"}
+    pages |= {p.relative_to(DOCS).with_suffix("").as_posix() for p in DOCS.glob("*/**/*.md")
+              if p.relative_to(DOCS).parts[0] not in ext.OWN_FOLDERS}
+    pages |= {f"tutorials/{p.stem}" for p in (DOCS / "tutorials").glob("*.md")}
+    assert pages <= listed, pages - listed
+
+
+def test_a_new_page_joins_the_user_guide_after_the_known_ones(tmp_path):
+    ext = load_extension()
+    for name in ("formats", "commands", "ballbar", "iso-tests", "index", "changelog"):
+        (tmp_path / f"{name}.md").write_text(f"# {name}\n", encoding="utf-8")
+    (tmp_path / "tutorials").mkdir()
+    for name in ("zeta", "paper"):
+        (tmp_path / "tutorials" / f"{name}.md").write_text("# t\n", encoding="utf-8")
+    (tmp_path / "guide").mkdir()
+    (tmp_path / "guide" / "deep.md").write_text("# deep\n", encoding="utf-8")
+    assert ext.guide_pages(tmp_path) == ["commands", "formats", "ballbar", "iso-tests", "guide/deep"]
+    assert ext.tutorial_pages(tmp_path) == ["tutorials/paper", "tutorials/zeta"]
+
+
+def test_the_tutorials_are_notebooks_the_build_executes():
+    for page in [DOCS / "getting-started.md", *sorted((DOCS / "tutorials").glob("*.md"))]:
+        text = page.read_text(encoding="utf-8")
+        assert text.startswith("---\njupytext:") and "kernelspec:" in text, page.name
+        assert "```{code-cell} ipython3" in text, page.name
