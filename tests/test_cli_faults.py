@@ -577,20 +577,23 @@ def test_sighup_stops_paper_with_no_orphans_or_output(tmp_path, group):
     assert not list(tmp_path.iterdir())  # no results folder, no staged file
 
 
-def test_zero_noise_is_said_and_negative_seeds_are_named(capsys, work, monkeypatch):
+def test_zero_noise_has_one_meaning_and_negative_seeds_are_named(capsys, work, monkeypatch):
+    """A zero noise is refused where bounds and weights come from it (identify, observability,
+    select), as --noise or as an all-zero pose covariance with zero leg noise; a simulation may
+    be noise-free (it says its bounds are 0)."""
     monkeypatch.chdir(work)
-    _status, _, err = run(
-        capsys,
-        "identify",
-        "--geometry",
-        "g.yaml",
-        "--data",
-        "m.csv",
-        "--out",
-        "z.yaml",
-        "--noise",
-        "leg=0,pos=0,ang=0",
-    )
+    (work / "zero.txt").write_text("\n".join(["0 0 0 0 0 0"] * 6) + "\n")
+    for noise in (["--noise", "leg=0,pos=0,ang=0"], ["--noise", "leg=0", "--pose-covariance", "zero.txt"]):
+        line = refused(
+            capsys, work, "identify", "--geometry", "g.yaml", "--data", "m.csv", "--out", "z.yaml", *noise
+        )
+        assert "every noise is 0" in line and "leave --noise out" in line
+    assert not (work / "z.yaml").exists()
+    line = refused(capsys, work, "observability", "--geometry", "g.yaml", "--poses", "p.csv",
+                   "--noise", "leg=0,pos=0,ang=0")  # fmt: skip
+    assert "every noise is 0" in line
+    _status, _, err = run(capsys, "simulate", "--geometry", "g.yaml", "--trials", "2", "--poses", "10",
+                          "--out", "sim", "--noise", "leg=0,pos=0,ang=0")  # fmt: skip
     assert "--noise is zero" in err
     line = refused(
         capsys,

@@ -29,7 +29,7 @@ from hexcal.cli.common import (
     table_reading,
     warn,
 )
-from hexcal.cli.noise import noise_from_args, noise_options, parse_noise
+from hexcal.cli.noise import noise_from_args, noise_options, parse_noise, refuse_zero_noise
 
 #: Default ``--sigma-limit``: a parameter combination whose predicted σ exceeds this
 #: fraction of the platform radius is poorly determined (``warn``), beyond three times it
@@ -49,7 +49,8 @@ def identify_noise(args: argparse.Namespace, sessions: Sequence[Any] = ()) -> An
         if args.pose_covariance:
             raise CommandError("--pose-covariance gives the noise: do not combine it with --noise auto")
         return "auto"
-    return noise_from_args(args, [s.instrument for s in sessions])
+    noise = noise_from_args(args, [s.instrument for s in sessions])
+    return refuse_zero_noise(noise, "every weight, bound and verdict")
 
 
 def read_sessions(args: argparse.Namespace, geometry: Any) -> list[Any]:

@@ -16,9 +16,10 @@ if TYPE_CHECKING:
 NOISE_HELP = "noise half-widths (uniform) or sigmas (normal), e.g. leg=0.01,pos=0.025,ang=0.001"
 
 
-def parse_noise(text: str | None, distribution: str = "uniform") -> NoiseModel:
+def parse_noise(text: str | None, distribution: str = "uniform", elsewhere: Sequence[str] = ()) -> NoiseModel:
     """Parse ``leg=0.01,pos=0.025,ang=0.001`` (any subset; others keep the paper's values,
-    said in a warning line naming them: a partial ``--noise`` never fills the rest silently).
+    said in a warning line naming them: a partial ``--noise`` never fills the rest silently;
+    the groups in ``elsewhere`` are given otherwise, by a pose covariance, and not named).
 
     >>> parse_noise("leg=0.02").leg
     0.02
@@ -48,13 +49,17 @@ def parse_noise(text: str | None, distribution: str = "uniform") -> NoiseModel:
         model = NoiseModel(distribution=distribution, **values)
     except ValueError as exc:
         raise CommandError(f"--noise: {exc}") from None
-    if values and len(values) < len(keys):
+    if values and any(name not in values and name not in elsewhere for name in keys.values()):
         import warnings
 
         from hexcal.errors import HexcalWarning
 
         short = {v: k for k, v in keys.items()}
-        rest = [f"{short[name]}={getattr(model, name):g}" for name in keys.values() if name not in values]
+        rest = [
+            f"{short[name]}={getattr(model, name):g}"
+            for name in keys.values()
+            if name not in values and name not in elsewhere
+        ]
         warnings.warn(
             f"--noise gives only {', '.join(short[n] for n in values)}: {', '.join(rest)} "
             "(the seed paper's values) for the rest",
@@ -88,8 +93,8 @@ def noise_from_args(args: argparse.Namespace, instruments: Sequence[Any] = ()) -
     """The noise model of ``--noise``, ``--noise-dist`` and ``--pose-covariance``; a pose
     covariance is refused for an instrument of ``instruments`` that measures no pose (it would
     not act)."""
-    noise = parse_noise(args.noise, args.noise_dist)
     path = getattr(args, "pose_covariance", None)
+    noise = parse_noise(args.noise, args.noise_dist, ("position", "orientation") if path else ())
     if path:
         for instrument in instruments:
             if not instrument.uses_pose_covariance():
@@ -106,4 +111,16 @@ def noise_from_args(args: argparse.Namespace, instruments: Sequence[Any] = ()) -
             )
         except ValueError as exc:
             raise CommandError(f"{path}: {exc}") from None
+    return noise
+
+
+def refuse_zero_noise(noise: NoiseModel, what: str) -> NoiseModel:
+    """``noise``, unless it is zero in every group (legs and the whole pose covariance): then no
+    weight, bound or verdict can come from it, and :class:`CommandError` says so (``what``: what
+    would need it)."""
+    if noise.leg == 0 and not noise.has_pose_noise:
+        raise CommandError(
+            f"--noise: every noise is 0, so {what} would be 0 by construction; give the instruments' "
+            "σ (e.g. leg=0.01,pos=0.025,ang=0.001), or leave --noise out to learn it from the data"
+        )
     return noise

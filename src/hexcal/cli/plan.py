@@ -37,7 +37,7 @@ from hexcal.cli.common import (
     table_reading,
     warn,
 )
-from hexcal.cli.noise import NOISE_HELP, parse_noise
+from hexcal.cli.noise import NOISE_HELP, parse_noise, refuse_zero_noise
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -64,7 +64,8 @@ FIT_HELP = "parameter groups: joints, base, platform, l0, gains"
 
 
 def _noise(args: argparse.Namespace) -> Any:
-    return parse_noise(args.noise, choice(args.noise_dist, ("uniform", "normal"), "--noise-dist"))
+    noise = parse_noise(args.noise, choice(args.noise_dist, ("uniform", "normal"), "--noise-dist"))
+    return refuse_zero_noise(noise, "every predicted accuracy")
 
 
 # -- errormap -----------------------------------------------------------------------------------

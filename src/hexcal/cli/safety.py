@@ -50,7 +50,7 @@ COUNT_OPTIONS = ("trials", "n", "draws", "levels", "grid", "points", "max_rows")
 CANDIDATE_BYTES = {"candidates": 200, "select": 2400}
 
 #: Commands whose reports carry a Cramér-Rao bound (0 when the noise is 0: said so).
-BOUND_COMMANDS = ("identify", "observability", "select", "simulate", "paper")
+BOUND_COMMANDS = ("simulate", "paper")  # identify, observability, select refuse a zero noise
 
 #: Bytes kept per simulated trial and campaign kind (parameter errors, bounds and pose errors
 #: of each method: a few hundred numbers).

@@ -63,8 +63,12 @@ class NoiseModel:
 
     @property
     def sigmas(self) -> tuple[float, float, float]:
-        """Standard deviations ``(leg, position, orientation)``."""
+        """Standard deviations ``(leg, position, orientation)``; with a ``pose_covariance``, the
+        position and orientation ones are the RMS of its diagonal's square roots (its own)."""
         k = 1 / np.sqrt(3) if self.distribution == "uniform" else 1.0
+        if self.pose_covariance is not None:
+            diag = np.diag(np.asarray(self.pose_covariance, dtype=float))
+            return (self.leg * k, float(np.sqrt(np.mean(diag[:3]))), float(np.sqrt(np.mean(diag[3:]))))
         return (self.leg * k, self.position * k, self.orientation * k)
 
     @property

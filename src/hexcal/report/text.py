@@ -185,6 +185,12 @@ def noise_lines(data: dict[str, Any]) -> list[str]:
         err = f" ± {stderr[group]:.2g}" if group in stderr else ""
         parts.append(f"{group} σ {noise[group]:.4g}{err} {unit}")
     lines.append("    given: " + ", ".join(parts) + " (standard deviations)")
+    covariance = noise.get("pose_covariance", (noise.get("given") or {}).get("pose_covariance"))
+    if covariance is not None:
+        lines.append(
+            "    position and orientation: the RMS of the given 6x6 pose covariance's diagonal (the fit "
+            "uses the whole matrix)"
+        )
     check = data.get("noise_check")
     if check:
         bad = [g for g, c in check.items() if c.get("disagrees")]
