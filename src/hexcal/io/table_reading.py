@@ -41,6 +41,7 @@ _BLANKS = np.frombuffer(b"\n\r \t", np.uint8)
 
 
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
+_BYTE_BREAK = re.compile(rb"\r\n|\r|\n")
 
 
 def _lines(text: str) -> list[str]:
@@ -92,20 +93,38 @@ class _Scanner:
                             raise InputError(f"{name}: line {lineno}: over {MAX_LINE_CHARS:,} characters")
                         continue
                     piece, rest = buf[:cut], buf[cut:]
-                    block, count = self._piece(lineno, piece)
+                    found, count = self._piece(lineno, piece)
                     lineno += count
-                    if len(block):
-                        yield block
+                    yield from (block for block in found if len(block))
             except OSError as exc:
                 raise InputError(f"{name}: cannot read: {exc}") from None
         if rest:
-            block, _ = self._piece(lineno, rest)
-            if len(block):
-                yield block
+            found, _ = self._piece(lineno, rest)
+            yield from (block for block in found if len(block))
         if self.header is None:
             raise InputError(f"{name}: empty file (no header row)")
 
-    def _piece(self, lineno: int, piece: bytes) -> tuple[tables.TableBlock, int]:
+    def _piece(self, lineno: int, piece: bytes) -> tuple[list[tables.TableBlock], int]:
+        """The data rows of whole lines ``piece`` (from line ``lineno``) and its number of lines.
+
+        The lines up to the first data line (comments, the header, the unit row) are read one
+        at a time, so that the rest of the first chunk can be a block of plain rows too.
+        """
+        if self.header is not None and not self.units_next:
+            block, count = self._rows(lineno, piece)
+            return [block], count
+        at = count = 0
+        heads = []
+        while at < len(piece) and (self.header is None or self.units_next):
+            found = _BYTE_BREAK.search(piece, at)
+            after = found.end() if found else len(piece)
+            head, n = self._rows(lineno + count, piece[at:after])
+            heads.append(head)
+            at, count = after, count + n
+        block, n = self._rows(lineno + count, piece[at:])
+        return [*heads, block], count + n
+
+    def _rows(self, lineno: int, piece: bytes) -> tuple[tables.TableBlock, int]:
         """The data rows of whole lines ``piece`` (from line ``lineno``) and its number of lines."""
         if self.header is not None and not self.units_next and len(self.header) > 1:
             odd = piece.translate(None, _PLAIN)
