@@ -78,31 +78,31 @@ def _spans(first: NDArray[np.int64], stop: NDArray[np.int64]) -> NDArray[np.int6
 
 
 def block_numbers(
-    text: str, ends: NDArray[np.int64], delimiter: str, width: int, id_column: int | None
+    text: str, ends: NDArray[np.int64], delimiter: str, width: int, id_column: int | None, wanted: list[int]
 ) -> tuple[NDArray[np.float64], list[str] | None, bool] | None:
-    """The numbers of every column but the id ``(rows, width or width - 1)``, the id cells and
-    whether they are plain, or None when the block needs the careful path.
+    """The numbers of the columns ``wanted`` ``(rows, len(wanted))``, the id cells and whether
+    they are plain, or None when the block needs the careful path.
 
     ``text`` holds whole rows of ASCII text (no quotes, the decimal mark a point), each ended by
-    ``\\n`` at ``ends``. The id cells (``id_column``) are returned as they are in the file; they
-    are *plain* when each is non-empty, without blanks around it, without control characters,
-    and starts with neither ``#`` nor a formula mark (``= + - @``): then they need no other
-    check than for repeats.
+    ``\\n`` at ``ends``. The id cells (``id_column``, never wanted) are returned as they are in
+    the file; they are *plain* when each is non-empty, without blanks around it, without control
+    characters, and starts with neither ``#`` nor a formula mark (``= + - @``): then they need
+    no other check than for repeats. The parser reads every column but the id, or only the run
+    of columns from the first wanted to the last when that saves enough (the cells outside it
+    are not read, as ``np.loadtxt``'s ``usecols`` does not convert them).
     """
-    if delimiter == "\t" or not len(ends) or not text.isascii():
+    if delimiter == "\t" or not len(ends) or not text.isascii() or id_column in wanted:
         return None
     raw = bytearray(text.encode("ascii"))
     data = np.frombuffer(raw, np.uint8)
     cuts = _cell_bounds(data, ends, delimiter, width)
     if cuts is None:
         return None
+    starts = np.empty_like(ends)
+    starts[0], starts[1:] = 0, ends[:-1] + 1
     ids, plain = None, False
     if id_column is not None:
-        first = np.empty_like(ends)
-        if id_column == 0:
-            first[0], first[1:] = 0, ends[:-1] + 1
-        else:
-            first[:] = cuts[:, id_column - 1] + 1
+        first = starts if id_column == 0 else cuts[:, id_column - 1] + 1
         stop = cuts[:, id_column] if id_column < width - 1 else ends
         taken = _spans(first, stop + 1)  # each cell and the byte after it (a delimiter or \n)
         ids = data[taken].tobytes().decode("ascii").split(chr(data[stop[0]]))[:-1]
@@ -115,19 +115,31 @@ def block_numbers(
             and np.all(data[stop - 1] > ord(" "))
             and not np.any((inner < ord(" ")) | (inner > ord("~")))
         )
-        if width == 1:
-            return np.empty((len(ends), 0)), ids, plain
-        # the id cell and one delimiter beside it become blanks, which the parser skips
-        data[_spans(first - (id_column == width - 1), stop + (id_column < width - 1))] = ord(" ")
-    data[ends] = ord(delimiter)
-    columns = width - (id_column is not None)
+    if not wanted:
+        return np.empty((len(ends), 0)), ids, plain
+    parsed = [k for k in range(width) if k != id_column]
+    low, high = min(wanted), max(wanted)
+    kept = high - low + 1
+    if (id_column is None or not low <= id_column <= high) and 5 * (len(parsed) - kept) > 2 * kept:
+        # gather the run of columns low..high of every row (each with the delimiter or \n after it)
+        parsed = list(range(low, high + 1))
+        first = starts if low == 0 else cuts[:, low - 1] + 1
+        part = data[_spans(first, (cuts[:, high] if high < width - 1 else ends) + 1)]
+        if high == width - 1:
+            part[part == ord("\n")] = ord(delimiter)
+        text_bytes = part.tobytes()
+    else:
+        if id_column is not None:  # the id cell and one delimiter beside it become blanks, skipped
+            data[_spans(first - (id_column == width - 1), stop + (id_column < width - 1))] = ord(" ")
+        data[ends] = ord(delimiter)
+        text_bytes = data.tobytes()
     try:
-        values = np.fromstring(data.tobytes(), dtype=float, sep=delimiter)
+        values = np.fromstring(text_bytes, dtype=float, sep=delimiter)
     except ValueError:
         return None
-    if values.size != len(ends) * columns or not np.isfinite(values).all() or (values == -1.0).any():
+    if values.size != len(ends) * len(parsed) or not np.isfinite(values).all() or (values == -1.0).any():
         return None
-    return values.reshape(len(ends), columns), ids, plain
+    return values.reshape(len(ends), len(parsed))[:, [parsed.index(k) for k in wanted]], ids, plain
 
 
 def loadtxt_numbers(

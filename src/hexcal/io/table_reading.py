@@ -35,9 +35,6 @@ Columns = Mapping[str, str] | None
 MAX_LINE_CHARS = 1 << 24
 _CHUNK_BYTES = 1 << 22
 _BOM = "\ufeff"
-#: Bytes a chunk may hold and still be one block of plain rows (no quotes, comments, CR...).
-_PLAIN = bytes(b for b in range(32, 127) if b not in b'"#') + b"\n\t"
-_BLANKS = np.frombuffer(b"\n\r \t", np.uint8)
 
 
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
@@ -126,15 +123,17 @@ class _Scanner:
 
     def _rows(self, lineno: int, piece: bytes) -> tuple[tables.TableBlock, int]:
         """The data rows of whole lines ``piece`` (from line ``lineno``) and its number of lines."""
-        if self.header is not None and not self.units_next and len(self.header) > 1:
-            odd = piece.translate(None, _PLAIN)
-            crlf = bool(odd) and not odd.strip(b"\r") and piece.count(b"\r") == piece.count(b"\r\n")
-            if (not odd or crlf) and piece[-1:] == b"\n":
+        plain = piece[-1:] == b"\n" and piece.isascii() and b'"' not in piece and b"#" not in piece
+        if plain and self.header is not None and not self.units_next and len(self.header) > 1:
+            cr = piece.count(b"\r")
+            if not cr or cr == piece.count(b"\r\n"):
                 data = np.frombuffer(piece, np.uint8)
                 ends = np.flatnonzero(data == 10)
-                firsts = data[np.concatenate([[0], ends[:-1] + 1])]  # no blank line, none led by a blank
+                # no blank line, none led by a blank or a control character (read line by line,
+                # they would be skipped or stripped)
+                firsts = data[np.concatenate([[0], ends[:-1] + 1])]
                 longest = np.diff(ends, prepend=-1).max()
-                if not np.isin(firsts, _BLANKS).any() and longest <= tables.MAX_FIELD_CHARS:
+                if np.all(firsts > 32) and longest <= tables.MAX_FIELD_CHARS:
                     lines = np.arange(lineno, lineno + len(ends), dtype=np.int64)
                     return tables.TableBlock(piece.decode("ascii"), lines, ends, False), len(ends)
         try:

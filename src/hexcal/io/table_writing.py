@@ -212,11 +212,21 @@ def _quote(cell: str) -> str:
 
 def _plain_ids(ids: list[str]) -> NDArray[np.uint8] | None:
     """The ids as NUL-padded ASCII bytes ``(k, width)``, or None (to be checked and quoted one by one)."""
-    joined = "".join(ids)
-    if not joined.isascii() or any(c in joined for c in '\x00,"\r\n'):
+    joined = "\n".join(ids)
+    if not joined.isascii() or any(c in joined for c in '\x00,"\r') or joined.count("\n") != len(ids) - 1:
         return None
-    cells = np.array(ids, dtype="S")
-    table = cells.view(np.uint8).reshape(len(ids), cells.dtype.itemsize)
+    text = np.frombuffer(joined.encode("ascii") + b"\n", np.uint8)
+    ends = np.flatnonzero(text == 10)
+    starts = np.empty_like(ends)
+    starts[0], starts[1:] = 0, ends[:-1] + 1
+    lengths = ends - starts
+    width = int(lengths.max()) if len(ids) else 0
+    if width == 0:
+        return None
+    # each id's bytes, then NULs: text[starts + j] while j < length (the \n at ends, masked, never beyond)
+    at = starts[:, None] + np.arange(width)
+    table = np.where(np.arange(width) < lengths[:, None], text[np.minimum(at, len(text) - 1)], 0)
+    table = table.astype(np.uint8)
     first = table[:, 0]
     marks = np.isin(first, np.frombuffer(FORMULA_MARKS.encode(), np.uint8))
     control = ((table > 0) & (table < 32)) | (table == 127)
@@ -244,15 +254,23 @@ def _checked_ids(name: str, ids: list[str]) -> list[str]:
 
 
 def format_rows(
-    name: str, data: NDArray[np.float64], ids: Sequence[str] | None = None, missing: bool = False
+    name: str,
+    data: NDArray[np.float64],
+    ids: Sequence[str] | None = None,
+    missing: bool = False,
+    plain: NDArray[np.uint8] | None = None,
 ) -> bytes:
-    """The CSV lines (UTF-8) of the rows ``data`` (finite; NaN an empty cell when ``missing``) and ids."""
+    """The CSV lines (UTF-8) of the rows ``data`` (finite; NaN an empty cell when ``missing``) and ids.
+
+    ``plain``: the ids as :func:`_plain_ids` gives them, if already made (for a larger block).
+    """
     rows, width = data.shape
     flat = format_values(data, missing)
     slots = flat.reshape(rows, width, flat.shape[1])
     slots[:, 1:, 0] = ord(",")  # each value's separator, before it
     cells = list(map(str, ids)) if ids is not None else None
-    plain = _plain_ids(cells) if cells is not None else None
+    if plain is None and cells is not None:
+        plain = _plain_ids(cells)
     slots[:, 0, 0] = ord(",") if plain is not None else 0
     ends = np.full((rows, 1), ord("\n"), np.uint8)
     parts = [slots.reshape(rows, -1), ends] if plain is None else [plain, slots.reshape(rows, -1), ends]
@@ -305,10 +323,12 @@ class TableWriter:
         if type(self.fh) is io.TextIOWrapper:  # a staged file: its bytes, without decoding them again
             self.fh.flush()
             raw = self.fh.buffer
+        plain = None if ids is None else _plain_ids(list(map(str, ids)))  # the whole block at once
         for start in range(0, len(data), FORMAT_ROWS):
             stop = start + FORMAT_ROWS
             part = None if ids is None else ids[start:stop]
-            text = format_rows(self.name, data[start:stop], part, self.missing)
+            some = None if plain is None else plain[start:stop]
+            text = format_rows(self.name, data[start:stop], part, self.missing, some)
             if raw is not None:
                 raw.write(text)
             else:

@@ -288,11 +288,9 @@ class Table:
         if self._dialect.decimal == ",":
             text = text.replace(",", ".")
         kid = self.columns.index("id") if "id" in self.columns else None
-        got = None if kid in idx else block_numbers(text, block.ends, d, width, kid)
-        if got is not None:  # every number and the id cells at once
+        got = block_numbers(text, block.ends, d, width, kid, idx)  # the numbers and ids at once
+        if got is not None:
             values, cells, plain_cells = got
-            numeric = [k for k in range(width) if k != kid]
-            values = values[:, [numeric.index(k) for k in idx]]
         else:
             got = loadtxt_numbers(text, len(block), d, width, idx, block.checked, kid)
             if got is None:
