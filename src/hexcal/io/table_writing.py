@@ -44,6 +44,8 @@ SLOT = 44
 
 #: Rows formatted at a time (temporaries of ``SLOT`` bytes per value stay in the cache).
 FORMAT_ROWS = 1024
+#: Rows whose ids are checked and laid out as bytes at a time.
+IDS_ROWS = 16 * FORMAT_ROWS
 
 _E_MIN, _E_MAX = -8, 14  # decimal exponents formatted by numpy (10**(14 - e) is exact)
 _POW = 10.0 ** np.arange(_E_MAX - _E_MIN + 1)
@@ -323,16 +325,18 @@ class TableWriter:
         if type(self.fh) is io.TextIOWrapper:  # a staged file: its bytes, without decoding them again
             self.fh.flush()
             raw = self.fh.buffer
-        plain = None if ids is None else _plain_ids(list(map(str, ids)))  # the whole block at once
-        for start in range(0, len(data), FORMAT_ROWS):
-            stop = start + FORMAT_ROWS
-            part = None if ids is None else ids[start:stop]
-            some = None if plain is None else plain[start:stop]
-            text = format_rows(self.name, data[start:stop], part, self.missing, some)
-            if raw is not None:
-                raw.write(text)
-            else:
-                self.fh.write(text.decode("utf-8"))
+        for outer in range(0, len(data), IDS_ROWS):  # the ids' bytes made for many rows at once
+            cells = None if ids is None else list(map(str, ids[outer : outer + IDS_ROWS]))
+            plain = None if cells is None else _plain_ids(cells)
+            for start in range(0, min(IDS_ROWS, len(data) - outer), FORMAT_ROWS):
+                stop = start + FORMAT_ROWS
+                part = None if cells is None else cells[start:stop]
+                some = None if plain is None else plain[start:stop]
+                text = format_rows(self.name, data[outer + start : outer + stop], part, self.missing, some)
+                if raw is not None:
+                    raw.write(text)
+                else:
+                    self.fh.write(text.decode("utf-8"))
         self.rows += len(data)
 
 
