@@ -168,7 +168,11 @@ write_poses(sys.argv[1] + ".one", poses[:1], ids=["p0"])
 
 
 def _env(src: str | None) -> dict[str, str]:
+    """The children's environment: ``src`` first on the path, and bytecode caches written and
+    used as by an installed hexcal (a ``PYTHONDONTWRITEBYTECODE`` of the caller would make every
+    command compile all its modules again, a cost of the machine, not of the table paths)."""
     env = dict(os.environ)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     if src:
         env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     return env
@@ -204,6 +208,13 @@ def measure(src: str | None, rows: int, folder: Path, best: dict[str, dict[str, 
     env, cwd = _env(src), str(folder)
     hexcal = [sys.executable, "-m", "hexcal"]
     one = ["ik", "--geometry", "paper-hmt", "--poses", "poses.csv.one", "--out", "one.csv"]
+    for args in (one, [*COMMANDS["fk"][:4], "one.csv", "--out", "back.one.csv"]):  # warm-up: the caches
+        _timed(hexcal + args, env, cwd)
+    _timed(
+        hexcal + [*COMMANDS["compensate"][:4], "poses.csv.one", "--out", "c.one.csv", "--skip-infeasible"],
+        env,
+        cwd,
+    )
     figures = {"start-up": dict(zip(("wall", "cpu"), _timed(hexcal + one, env, cwd)[:2], strict=True))}
     for name, args in COMMANDS.items():
         wall, cpu, text = _timed([sys.executable, "-c", INSIDE, KINEMATICS_NAMES[name], *args], env, cwd)
