@@ -160,14 +160,16 @@ def test_a_written_file_reads_back_exactly_by_the_fast_path(
 
 
 def test_block_numbers_declines_what_it_cannot_judge() -> None:
-    ends = lambda text: np.flatnonzero(np.frombuffer(text.encode(), np.uint8) == 10)  # noqa: E731
-    good = "a,1,2\nb,3,4\n"
+    ends = lambda text: np.flatnonzero(np.frombuffer(text, np.uint8) == 10)  # noqa: E731
+    good = b"a,1,2\nb,3,4\n"
     values, ids, plain = block_numbers(good, ends(good), ",", 3, 0, [1, 2])
     np.testing.assert_array_equal(values, [[1, 2], [3, 4]])
     assert ids == ["a", "b"] and plain
-    assert block_numbers("a,1\nb,3,4,5\n", ends("a,1\nb,3,4,5\n"), ",", 3, 0, [1, 2]) is None  # field counts
-    assert block_numbers("a\t1\t2\n", ends("a\t1\t2\n"), "\t", 3, 0, [1, 2]) is None  # tabs: loadtxt
-    assert block_numbers("a,1,-1\n", ends("a,1,-1\n"), ",", 3, 0, [1, 2]) is None  # -1: careful
-    assert block_numbers("a,1,2\n", ends("a,1,2\n"), ",", 3, 0, [0, 1]) is None  # the id as a number
-    values, ids, plain = block_numbers(" a,1,2\n", ends(" a,1,2\n"), ",", 3, 0, [2])
+    assert (
+        block_numbers(b"a,1\nb,3,4,5\n", ends(b"a,1\nb,3,4,5\n"), ",", 3, 0, [1, 2]) is None
+    )  # field counts
+    assert block_numbers(b"a\t1\t2\n", ends(b"a\t1\t2\n"), "\t", 3, 0, [1, 2]) is None  # tabs: loadtxt
+    assert block_numbers(b"a,1,-1\n", ends(b"a,1,-1\n"), ",", 3, 0, [1, 2]) is None  # -1: careful
+    assert block_numbers(b"a,1,2\n", ends(b"a,1,2\n"), ",", 3, 0, [0, 1]) is None  # the id as a number
+    values, ids, plain = block_numbers(b" a,1,2\n", ends(b" a,1,2\n"), ",", 3, 0, [2])
     assert ids == [" a"] and not plain and values.tolist() == [[2.0]]

@@ -26,10 +26,32 @@ from numpy.typing import NDArray
 
 
 class TableBlock:
-    """Data lines of a table as one text: each row ends with ``\\n`` at ``ends[k]``."""
+    """Data lines of a table as one text: each row ends with ``\\n`` at ``ends[k]``.
 
-    def __init__(self, text: str, lines: NDArray[np.int64], ends: NDArray[np.int64], checked: bool) -> None:
-        self.text, self.lines, self.ends, self.checked = text, lines, ends, checked
+    The text is kept as the scanner read it: ASCII bytes for a chunk of plain rows (decoded only
+    if the careful path needs it), or a ``str`` for rows read line by line.
+    """
+
+    def __init__(
+        self, text: str | bytes, lines: NDArray[np.int64], ends: NDArray[np.int64], checked: bool
+    ) -> None:
+        self._text, self._raw = (None, text) if isinstance(text, bytes) else (text, None)
+        self.lines, self.ends, self.checked = lines, ends, checked
+
+    @property
+    def text(self) -> str:
+        if self._text is None:
+            assert self._raw is not None
+            self._text = self._raw.decode("ascii")
+        return self._text
+
+    @property
+    def raw(self) -> bytes:
+        """The text as bytes (UTF-8; the positions ``ends`` are those of the bytes when ASCII)."""
+        if self._raw is None:
+            assert self._text is not None
+            self._raw = self._text.encode("utf-8")
+        return self._raw
 
     @classmethod
     def of(cls, records: Sequence[str], lines: Sequence[int]) -> TableBlock:
@@ -41,8 +63,9 @@ class TableBlock:
 
     def cut(self, k: int) -> tuple[TableBlock, TableBlock]:
         at = int(self.ends[k - 1]) + 1
-        head = TableBlock(self.text[:at], self.lines[:k], self.ends[:k], self.checked)
-        return head, TableBlock(self.text[at:], self.lines[k:], self.ends[k:] - at, self.checked)
+        whole = self._text if self._text is not None else self.raw
+        head = TableBlock(whole[:at], self.lines[:k], self.ends[:k], self.checked)
+        return head, TableBlock(whole[at:], self.lines[k:], self.ends[k:] - at, self.checked)
 
 
 #: The first bytes of an id that the careful checks must judge: blank, ``#`` and formula marks.
@@ -70,20 +93,32 @@ def _cell_bounds(
     return cuts
 
 
-def _spans(first: NDArray[np.int64], stop: NDArray[np.int64]) -> NDArray[np.int64]:
-    """The positions ``first[k] <= p < stop[k]`` of every ``k``, in order."""
+def _spans(first: NDArray[np.int64], stop: NDArray[np.int64]) -> NDArray[np.intp]:
+    """The positions ``first[k] <= p < stop[k]`` of every ``k``, in order (spans in increasing order).
+
+    One running sum: 1 from a position to the next inside a span, the jump to the next span's
+    first position at its start (``np.repeat`` of the offsets costs four times more).
+    """
     lengths = stop - first
-    offsets = np.cumsum(lengths) - lengths
-    return np.repeat(first - offsets, lengths) + np.arange(int(lengths.sum()))
+    some = lengths > 0
+    if not some.all():
+        first, stop, lengths = first[some], stop[some], lengths[some]
+    if not len(lengths):
+        return np.empty(0, np.intp)
+    steps = np.ones(int(lengths.sum()), np.intp)
+    jumps = np.empty(len(first), np.intp)
+    jumps[0], jumps[1:] = first[0], first[1:] - (stop[:-1] - 1)
+    steps[np.cumsum(lengths) - lengths] = jumps
+    return np.cumsum(steps, out=steps)
 
 
 def block_numbers(
-    text: str, ends: NDArray[np.int64], delimiter: str, width: int, id_column: int | None, wanted: list[int]
+    text: bytes, ends: NDArray[np.int64], delimiter: str, width: int, id_column: int | None, wanted: list[int]
 ) -> tuple[NDArray[np.float64], list[str] | None, bool] | None:
     """The numbers of the columns ``wanted`` ``(rows, len(wanted))``, the id cells and whether
     they are plain, or None when the block needs the careful path.
 
-    ``text`` holds whole rows of ASCII text (no quotes, the decimal mark a point), each ended by
+    ``text`` holds whole rows of ASCII bytes (no quotes, the decimal mark a point), each ended by
     ``\\n`` at ``ends``. The id cells (``id_column``, never wanted) are returned as they are in
     the file; they are *plain* when each is non-empty, without blanks around it, without control
     characters, and starts with neither ``#`` nor a formula mark (``= + - @``): then they need
@@ -93,7 +128,7 @@ def block_numbers(
     """
     if delimiter == "\t" or not len(ends) or not text.isascii() or id_column in wanted:
         return None
-    raw = bytearray(text.encode("ascii"))
+    raw = bytearray(text)
     data = np.frombuffer(raw, np.uint8)
     cuts = _cell_bounds(data, ends, delimiter, width)
     if cuts is None:

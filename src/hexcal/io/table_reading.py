@@ -135,7 +135,7 @@ class _Scanner:
                 longest = np.diff(ends, prepend=-1).max()
                 if np.all(firsts > 32) and longest <= tables.MAX_FIELD_CHARS:
                     lines = np.arange(lineno, lineno + len(ends), dtype=np.int64)
-                    return tables.TableBlock(piece.decode("ascii"), lines, ends, False), len(ends)
+                    return tables.TableBlock(piece, lines, ends, False), len(ends)
         try:
             parts = _lines(piece.decode("utf-8"))
         except UnicodeDecodeError as exc:

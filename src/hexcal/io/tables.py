@@ -260,7 +260,10 @@ class Table:
         for block in self._blocks:
             both = self._dialect.decimal is None and "," in block.text and "." in block.text
             cells = self._cells(block) if both else None
-            self._dialect.decide(block.text, None if cells is None else [[r[k] for k in idx] for r in cells])
+            if self._dialect.decimal is None:  # (then the text is not needed)
+                self._dialect.decide(
+                    block.text, None if cells is None else [[r[k] for k in idx] for r in cells]
+                )
             fast = None if empty else self._fast(block, idx, id_cells if want_ids else None, plain)
             if fast is None:
                 plain[0] = False
@@ -282,16 +285,16 @@ class Table:
     ) -> NDArray[np.float64] | None:
         """The block's numbers by numpy's C parsers (:mod:`hexcal.io.table_fast`: ``np.fromstring``
         of the whole block, else ``np.loadtxt``), or None (they refused something, or cannot judge)."""
-        text, d, width = block.text, self._dialect.delimiter, len(self.columns)
-        if '"' in text or (self._dialect.decimal == "," and "." in text):
+        raw, d, width = block.raw, self._dialect.delimiter, len(self.columns)
+        if b'"' in raw or (self._dialect.decimal == "," and b"." in raw):
             return None
-        if self._dialect.decimal == ",":
-            text = text.replace(",", ".")
+        comma = self._dialect.decimal == ","
         kid = self.columns.index("id") if "id" in self.columns else None
-        got = block_numbers(text, block.ends, d, width, kid, idx)  # the numbers and ids at once
-        if got is not None:
+        got = block_numbers(raw.replace(b",", b".") if comma else raw, block.ends, d, width, kid, idx)
+        if got is not None:  # the numbers and ids at once
             values, cells, plain_cells = got
         else:
+            text = block.text.replace(",", ".") if comma else block.text
             got = loadtxt_numbers(text, len(block), d, width, idx, block.checked, kid)
             if got is None:
                 return None
