@@ -125,7 +125,7 @@ class _Scanner:
         """The data rows of whole lines ``piece`` (from line ``lineno``) and its number of lines."""
         plain = piece[-1:] == b"\n" and piece.isascii() and b'"' not in piece and b"#" not in piece
         if plain and self.header is not None and not self.units_next and len(self.header) > 1:
-            cr = piece.count(b"\r")
+            cr = piece.count(b"\r") if b"\r" in piece else 0
             if not cr or cr == piece.count(b"\r\n"):
                 data = np.frombuffer(piece, np.uint8)
                 ends = np.flatnonzero(data == 10)

@@ -403,15 +403,16 @@ def write_legs(
     comment: str | None = None,
     outputs: OutputSet | None = None,
 ) -> None:
-    """Write a leg file with ``l1..l6`` and ``dl1..dl6``."""
-    write_table(
-        path,
-        LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS,
-        np.concatenate([lengths, readings], axis=1),
-        ids,
-        comment,
-        outputs,
-    )
+    """Write a leg file with ``l1..l6`` and ``dl1..dl6`` (the two joined a block at a time)."""
+    lengths, readings = np.asarray(lengths, dtype=float), np.asarray(readings, dtype=float)
+    if lengths.shape != readings.shape:
+        raise ValueError(f"lengths {lengths.shape} and readings {readings.shape} differ")
+    blocks = (
+        (np.concatenate([lengths[k : k + IDS_ROWS], readings[k : k + IDS_ROWS]], axis=1),
+         None if ids is None else ids[k : k + IDS_ROWS])
+        for k in range(0, len(lengths), IDS_ROWS)
+    )  # fmt: skip
+    write_table_blocks(path, LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS, blocks, comment, outputs)
 
 
 def write_measurements(

@@ -276,7 +276,7 @@ class Table:
             parts.append(fast)
         out = np.concatenate(parts) if parts else np.empty((0, len(names)))
         for c, name in enumerate(names):
-            self._numbers[name] = out[:, c].copy()
+            self._numbers[name] = out[:, c]  # views of one array (no copies of a whole table)
         if want_ids:
             self._id_cells, self._plain_ids = id_cells, plain[0]
 
