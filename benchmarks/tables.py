@@ -2,32 +2,30 @@
 
 ``python benchmarks/tables.py [--rows N] [--compare SRC] [--repeats R]`` writes a pose file
 of N random workspace poses with ids (default 1,000,000) and times, each as a subprocess of
-this interpreter (``python -m hexcal``, start-up included):
+this interpreter through ``hexcal.cli.main.main`` (start-up included; bytecode caches written
+by a warm-up run, as an installed hexcal has them):
 
 - ``hexcal ik --geometry paper-hmt --poses poses.csv --out legs.csv``;
 - ``hexcal fk --geometry paper-hmt --legs legs.csv --out back.csv`` (ik's output: ``l1..l6``
   and ``dl1..dl6`` with ids);
 - ``hexcal compensate --geometry paper-hmt-true --poses poses.csv --out commands.csv
-  --skip-infeasible``;
+  --skip-infeasible``.
 
-and, in a fresh subprocess of the same source tree, the kinematics each command computes,
-alone, on arrays already in memory and in the command's own blocks (``ik``: inverse
-kinematics, the feasibility check and the readings per block of :data:`~hexcal.io.BLOCK_ROWS`
-rows; ``fk``: the readings' lengths, the leg limits, the first Newton step from the home
-pose and the Newton iteration per block; ``compensate``: :func:`hexcal.core.compensate` of
-all the targets). For every command it prints the wall and CPU seconds end to end, the CPU
-seconds of the kinematics alone, the file path (end to end minus the kinematics, CPU, start-up
-included), the ratio end to end / kinematics (the file paths' cost in units of the machine's
-own speed), and the CPU seconds of the command's reading and writing alone, in process (its
-readers and writers on the same files, the kinematics replaced by a copy of a column): the
-figure that the kinematics' own variation from run to run does not blur.
+In the same process it counts the CPU seconds inside the command's kinematics (the outermost
+calls of the ``hexcal.core`` functions the command imports, :data:`KINEMATICS_NAMES`); the
+rest is the file path: start-up, reading, checks, ids, conversions, writing, the output set.
+It also times, in a fresh subprocess of the same source tree, the kinematics alone on arrays
+in memory in the command's own blocks (the ratio end to end / kinematics alone), and the
+command's readers and writers alone, in process (the kinematics replaced by a copy of a
+column).
 
 ``--compare SRC`` times another source tree (``PYTHONPATH=SRC``, e.g. the base commit
 extracted with ``git archive``) in the same run, each figure alternating between the two
 trees (``--repeats`` rounds, default 2, the best of each kept), and prints the speed-ups
-old / new: of the wall time, of the file path's CPU time, of the ratio and of the files alone. On a shared
-machine every figure moves by tens of per cent from run to run: read the load average
-printed before and after, and judge the speed-ups, not the seconds.
+old / new of the wall time, of the file path's CPU time in the command (the figure judged:
+target :data:`TARGET` x, PASS/MISS), of the ratio and of the files alone. On a shared machine
+every figure moves by tens of per cent from run to run: read the load average printed before
+and after, and judge the speed-ups, not the seconds.
 """
 
 from __future__ import annotations
