@@ -62,7 +62,7 @@ def cmd_compensate(args: argparse.Namespace) -> None:
         )
     _warn_outside_box(geometry, targets, ids, "target(s)")
     keep = comp.feasible
-    kept_ids = [i for i, k in zip(ids, keep, strict=True) if k]
+    kept_ids = list(ids) if keep.all() else [i for i, k in zip(ids, keep, strict=True) if k]
     if args.corrected_poses and comp.corrected_poses is not None:
         _warn_outside_box(geometry, comp.corrected_poses[keep], kept_ids, "corrected pose(s)")
     write_legs(args.out, comp.lengths[keep], comp.readings[keep], kept_ids)

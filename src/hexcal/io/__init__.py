@@ -10,7 +10,8 @@ Modules: :mod:`~hexcal.io.outputs` (:class:`OutputSet`: a command's outputs chec
 front, staged and committed all together), :mod:`~hexcal.io.inputs` (regular files only,
 row limits, YAML with limits), :mod:`~hexcal.io.files` (atomic writes, JSON),
 :mod:`~hexcal.io.geometry_file` (YAML geometries), :mod:`~hexcal.io.tables` (the table model:
-rows as text, decimal marks, column names and maps), :mod:`~hexcal.io.measurement_files` (the
+rows as text, decimal marks, column names and maps), :mod:`~hexcal.io.table_fast` (blocks of
+plain rows converted whole by numpy), :mod:`~hexcal.io.measurement_files` (the
 one reader of every table, whole or in blocks: delimiter, unit row, limits; pose, measurement
 and leg files), :mod:`~hexcal.io.table_writing` (writing tables), :mod:`~hexcal.io.target_files`
 (instrument exports, column maps from a command line, covariance matrices),

@@ -206,10 +206,11 @@ class _BlockIds:
 
     def __call__(self, table: Table) -> tuple[str, ...]:
         if table.has("id"):
-            ids = table.ids()  # the repeats inside the block are refused here
+            ids = table.ids(repeats=False)  # every check but for repeats, which the set shows
             before = len(self.seen)
             self.seen.update(ids)
-            if len(self.seen) != before + len(ids):  # a repeat of an earlier block
+            if len(self.seen) != before + len(ids):  # a repeat inside the block, or of an earlier one
+                table.ids()  # the one inside the block is refused first, as always
                 table.ids(self._earlier(set(ids), table.line(0)))
         else:
             ids = table.ids(first=self.count + 1)

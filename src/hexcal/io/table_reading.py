@@ -35,12 +35,10 @@ Columns = Mapping[str, str] | None
 MAX_LINE_CHARS = 1 << 24
 _CHUNK_BYTES = 1 << 22
 _BOM = "\ufeff"
-#: Bytes a chunk may hold and still be one block of plain rows (no quotes, comments, CR...).
-_PLAIN = bytes(b for b in range(32, 127) if b not in b'"#') + b"\n\t"
-_BLANKS = np.frombuffer(b"\n\r \t", np.uint8)
 
 
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
+_BYTE_BREAK = re.compile(rb"\r\n|\r|\n")
 
 
 def _lines(text: str) -> list[str]:
@@ -92,32 +90,52 @@ class _Scanner:
                             raise InputError(f"{name}: line {lineno}: over {MAX_LINE_CHARS:,} characters")
                         continue
                     piece, rest = buf[:cut], buf[cut:]
-                    block, count = self._piece(lineno, piece)
+                    found, count = self._piece(lineno, piece)
                     lineno += count
-                    if len(block):
-                        yield block
+                    yield from (block for block in found if len(block))
             except OSError as exc:
                 raise InputError(f"{name}: cannot read: {exc}") from None
         if rest:
-            block, _ = self._piece(lineno, rest)
-            if len(block):
-                yield block
+            found, _ = self._piece(lineno, rest)
+            yield from (block for block in found if len(block))
         if self.header is None:
             raise InputError(f"{name}: empty file (no header row)")
 
-    def _piece(self, lineno: int, piece: bytes) -> tuple[tables.TableBlock, int]:
+    def _piece(self, lineno: int, piece: bytes) -> tuple[list[tables.TableBlock], int]:
+        """The data rows of whole lines ``piece`` (from line ``lineno``) and its number of lines.
+
+        The lines up to the first data line (comments, the header, the unit row) are read one
+        at a time, so that the rest of the first chunk can be a block of plain rows too.
+        """
+        if self.header is not None and not self.units_next:
+            block, count = self._rows(lineno, piece)
+            return [block], count
+        at = count = 0
+        heads = []
+        while at < len(piece) and (self.header is None or self.units_next):
+            found = _BYTE_BREAK.search(piece, at)
+            after = found.end() if found else len(piece)
+            head, n = self._rows(lineno + count, piece[at:after])
+            heads.append(head)
+            at, count = after, count + n
+        block, n = self._rows(lineno + count, piece[at:])
+        return [*heads, block], count + n
+
+    def _rows(self, lineno: int, piece: bytes) -> tuple[tables.TableBlock, int]:
         """The data rows of whole lines ``piece`` (from line ``lineno``) and its number of lines."""
-        if self.header is not None and not self.units_next and len(self.header) > 1:
-            odd = piece.translate(None, _PLAIN)
-            crlf = bool(odd) and not odd.strip(b"\r") and piece.count(b"\r") == piece.count(b"\r\n")
-            if (not odd or crlf) and piece[-1:] == b"\n":
+        plain = piece[-1:] == b"\n" and piece.isascii() and b'"' not in piece and b"#" not in piece
+        if plain and self.header is not None and not self.units_next and len(self.header) > 1:
+            cr = piece.count(b"\r") if b"\r" in piece else 0
+            if not cr or cr == piece.count(b"\r\n"):
                 data = np.frombuffer(piece, np.uint8)
                 ends = np.flatnonzero(data == 10)
-                firsts = data[np.concatenate([[0], ends[:-1] + 1])]  # no blank line, none led by a blank
+                # no blank line, none led by a blank or a control character (read line by line,
+                # they would be skipped or stripped)
+                firsts = data[np.concatenate([[0], ends[:-1] + 1])]
                 longest = np.diff(ends, prepend=-1).max()
-                if not np.isin(firsts, _BLANKS).any() and longest <= tables.MAX_FIELD_CHARS:
+                if np.all(firsts > 32) and longest <= tables.MAX_FIELD_CHARS:
                     lines = np.arange(lineno, lineno + len(ends), dtype=np.int64)
-                    return tables.TableBlock(piece.decode("ascii"), lines, ends, False), len(ends)
+                    return tables.TableBlock(piece, lines, ends, False), len(ends)
         try:
             parts = _lines(piece.decode("utf-8"))
         except UnicodeDecodeError as exc:

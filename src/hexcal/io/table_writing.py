@@ -44,6 +44,8 @@ SLOT = 44
 
 #: Rows formatted at a time (temporaries of ``SLOT`` bytes per value stay in the cache).
 FORMAT_ROWS = 1024
+#: Rows whose ids are checked and laid out as bytes at a time.
+IDS_ROWS = 16 * FORMAT_ROWS
 
 _E_MIN, _E_MAX = -8, 14  # decimal exponents formatted by numpy (10**(14 - e) is exact)
 _POW = 10.0 ** np.arange(_E_MAX - _E_MIN + 1)
@@ -212,11 +214,21 @@ def _quote(cell: str) -> str:
 
 def _plain_ids(ids: list[str]) -> NDArray[np.uint8] | None:
     """The ids as NUL-padded ASCII bytes ``(k, width)``, or None (to be checked and quoted one by one)."""
-    joined = "".join(ids)
-    if not joined.isascii() or any(c in joined for c in '\x00,"\r\n'):
+    joined = "\n".join(ids)
+    if not joined.isascii() or any(c in joined for c in '\x00,"\r') or joined.count("\n") != len(ids) - 1:
         return None
-    cells = np.array(ids, dtype="S")
-    table = cells.view(np.uint8).reshape(len(ids), cells.dtype.itemsize)
+    text = np.frombuffer(joined.encode("ascii") + b"\n", np.uint8)
+    ends = np.flatnonzero(text == 10)
+    starts = np.empty_like(ends)
+    starts[0], starts[1:] = 0, ends[:-1] + 1
+    lengths = ends - starts
+    width = int(lengths.max()) if len(ids) else 0
+    if width == 0:
+        return None
+    # each id's bytes, then NULs: text[starts + j] while j < length (the \n at ends, masked, never beyond)
+    at = starts[:, None] + np.arange(width)
+    table = np.where(np.arange(width) < lengths[:, None], text[np.minimum(at, len(text) - 1)], 0)
+    table = table.astype(np.uint8)
     first = table[:, 0]
     marks = np.isin(first, np.frombuffer(FORMULA_MARKS.encode(), np.uint8))
     control = ((table > 0) & (table < 32)) | (table == 127)
@@ -244,15 +256,23 @@ def _checked_ids(name: str, ids: list[str]) -> list[str]:
 
 
 def format_rows(
-    name: str, data: NDArray[np.float64], ids: Sequence[str] | None = None, missing: bool = False
+    name: str,
+    data: NDArray[np.float64],
+    ids: Sequence[str] | None = None,
+    missing: bool = False,
+    plain: NDArray[np.uint8] | None = None,
 ) -> bytes:
-    """The CSV lines (UTF-8) of the rows ``data`` (finite; NaN an empty cell when ``missing``) and ids."""
+    """The CSV lines (UTF-8) of the rows ``data`` (finite; NaN an empty cell when ``missing``) and ids.
+
+    ``plain``: the ids as :func:`_plain_ids` gives them, if already made (for a larger block).
+    """
     rows, width = data.shape
     flat = format_values(data, missing)
     slots = flat.reshape(rows, width, flat.shape[1])
     slots[:, 1:, 0] = ord(",")  # each value's separator, before it
     cells = list(map(str, ids)) if ids is not None else None
-    plain = _plain_ids(cells) if cells is not None else None
+    if plain is None and cells is not None:
+        plain = _plain_ids(cells)
     slots[:, 0, 0] = ord(",") if plain is not None else 0
     ends = np.full((rows, 1), ord("\n"), np.uint8)
     parts = [slots.reshape(rows, -1), ends] if plain is None else [plain, slots.reshape(rows, -1), ends]
@@ -305,14 +325,18 @@ class TableWriter:
         if type(self.fh) is io.TextIOWrapper:  # a staged file: its bytes, without decoding them again
             self.fh.flush()
             raw = self.fh.buffer
-        for start in range(0, len(data), FORMAT_ROWS):
-            stop = start + FORMAT_ROWS
-            part = None if ids is None else ids[start:stop]
-            text = format_rows(self.name, data[start:stop], part, self.missing)
-            if raw is not None:
-                raw.write(text)
-            else:
-                self.fh.write(text.decode("utf-8"))
+        for outer in range(0, len(data), IDS_ROWS):  # the ids' bytes made for many rows at once
+            cells = None if ids is None else list(map(str, ids[outer : outer + IDS_ROWS]))
+            plain = None if cells is None else _plain_ids(cells)
+            for start in range(0, min(IDS_ROWS, len(data) - outer), FORMAT_ROWS):
+                stop = start + FORMAT_ROWS
+                part = None if cells is None else cells[start:stop]
+                some = None if plain is None else plain[start:stop]
+                text = format_rows(self.name, data[outer + start : outer + stop], part, self.missing, some)
+                if raw is not None:
+                    raw.write(text)
+                else:
+                    self.fh.write(text.decode("utf-8"))
         self.rows += len(data)
 
 
@@ -379,15 +403,16 @@ def write_legs(
     comment: str | None = None,
     outputs: OutputSet | None = None,
 ) -> None:
-    """Write a leg file with ``l1..l6`` and ``dl1..dl6``."""
-    write_table(
-        path,
-        LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS,
-        np.concatenate([lengths, readings], axis=1),
-        ids,
-        comment,
-        outputs,
-    )
+    """Write a leg file with ``l1..l6`` and ``dl1..dl6`` (the two joined a block at a time)."""
+    lengths, readings = np.asarray(lengths, dtype=float), np.asarray(readings, dtype=float)
+    if lengths.shape != readings.shape:
+        raise ValueError(f"lengths {lengths.shape} and readings {readings.shape} differ")
+    blocks = (
+        (np.concatenate([lengths[k : k + IDS_ROWS], readings[k : k + IDS_ROWS]], axis=1),
+         None if ids is None else ids[k : k + IDS_ROWS])
+        for k in range(0, len(lengths), IDS_ROWS)
+    )  # fmt: skip
+    write_table_blocks(path, LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS, blocks, comment, outputs)
 
 
 def write_measurements(

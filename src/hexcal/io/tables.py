@@ -4,8 +4,8 @@ A :class:`Table` holds a file's data rows as text, block by block (:class:`Table
 with their physical line numbers, the file's :class:`Dialect` (delimiter and decimal mark)
 and hexcal's names of its columns (a column map renames the file's; messages name the
 file's own column). Numbers are converted on demand, all the columns asked together, by
-numpy's C parser (``np.loadtxt``) on a block's text; a block it refuses is converted cell
-by cell, which names the first bad cell in reading order. The rules of every cell:
+numpy's C parsers on a block's text (:mod:`hexcal.io.table_fast`); a block they refuse is
+converted cell by cell, which names the first bad cell in reading order. The rules of every cell:
 
 - the decimal mark is the file's: a comma-separated file has decimal points; otherwise the
   first block whose numbers show a mark decides (``12,5`` against ``12.5``), unless
@@ -24,7 +24,6 @@ column names and column maps are here (:data:`COLUMN_NAMES`, :func:`check_column
 from __future__ import annotations
 
 import csv
-import io
 import itertools
 import re
 import warnings
@@ -34,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning, UsageError
+from hexcal.io.table_fast import TableBlock, block_numbers, loadtxt_numbers
 
 #: Rows converted (or read, by ``iter_tables``) at a time.
 BLOCK_ROWS = 16_384
@@ -151,26 +151,6 @@ class Dialect:
             )
 
 
-class TableBlock:
-    """Data lines of a table as one text: each row ends with ``\\n`` at ``ends[k]``."""
-
-    def __init__(self, text: str, lines: NDArray[np.int64], ends: NDArray[np.int64], checked: bool) -> None:
-        self.text, self.lines, self.ends, self.checked = text, lines, ends, checked
-
-    @classmethod
-    def of(cls, records: Sequence[str], lines: Sequence[int]) -> TableBlock:
-        ends = np.cumsum(np.fromiter(map(len, records), np.int64, len(records)) + 1) - 1
-        return cls("".join(f"{r}\n" for r in records), np.asarray(lines, np.int64), ends, True)
-
-    def __len__(self) -> int:
-        return len(self.lines)
-
-    def cut(self, k: int) -> tuple[TableBlock, TableBlock]:
-        at = int(self.ends[k - 1]) + 1
-        head = TableBlock(self.text[:at], self.lines[:k], self.ends[:k], self.checked)
-        return head, TableBlock(self.text[at:], self.lines[k:], self.ends[k:] - at, self.checked)
-
-
 class Table:
     """A parsed CSV table: column names, data rows (kept as text) and their physical line numbers.
 
@@ -194,6 +174,7 @@ class Table:
         self._blocks = [TableBlock.of(records, lines)] if len(records) else []
         self._numbers: dict[str, NDArray[np.float64]] = {}
         self._id_cells: list[str] | None = None
+        self._plain_ids = False  # the id cells are stripped and need only the check for repeats
 
     @classmethod
     def of_blocks(cls, path: str, columns: tuple[str, ...], labels: tuple[str, ...], dialect: Dialect,
@@ -275,13 +256,17 @@ class Table:
         idx = [self.columns.index(n) for n in names]
         want_ids = "id" in self.columns and self._id_cells is None
         id_cells: list[str] = []
-        parts = []
+        parts, plain = [], [True]
         for block in self._blocks:
             both = self._dialect.decimal is None and "," in block.text and "." in block.text
             cells = self._cells(block) if both else None
-            self._dialect.decide(block.text, None if cells is None else [[r[k] for k in idx] for r in cells])
-            fast = None if empty else self._fast(block, idx, id_cells if want_ids else None)
+            if self._dialect.decimal is None:  # (then the text is not needed)
+                self._dialect.decide(
+                    block.text, None if cells is None else [[r[k] for k in idx] for r in cells]
+                )
+            fast = None if empty else self._fast(block, idx, id_cells if want_ids else None, plain)
             if fast is None:
+                plain[0] = False
                 cells = self._cells(block) if cells is None else cells
                 fast = np.column_stack(
                     [self._column([r[k] for r in cells], block, names[c], empty) for c, k in enumerate(idx)]
@@ -291,39 +276,34 @@ class Table:
             parts.append(fast)
         out = np.concatenate(parts) if parts else np.empty((0, len(names)))
         for c, name in enumerate(names):
-            self._numbers[name] = out[:, c].copy()
+            self._numbers[name] = out[:, c]  # views of one array (no copies of a whole table)
         if want_ids:
-            self._id_cells = id_cells
+            self._id_cells, self._plain_ids = id_cells, plain[0]
 
-    def _fast(self, block: TableBlock, idx: list[int], ids: list[str] | None) -> NDArray[np.float64] | None:
-        """The block's numbers by numpy's C parser, or None (it refused something, or cannot judge).
-
-        ``np.loadtxt`` accepts a subset of what ``float`` accepts (no ``_``, no non-ASCII digits)
-        and rounds alike. The last column is always read (its text converted to 0 if not asked):
-        with the total count of delimiters, that proves every row has the header's fields.
-        """
-        text, d, width = block.text, self._dialect.delimiter, len(self.columns)
-        if '"' in text or (self._dialect.decimal == "," and "." in text):
+    def _fast(
+        self, block: TableBlock, idx: list[int], ids: list[str] | None, plain: list[bool]
+    ) -> NDArray[np.float64] | None:
+        """The block's numbers by numpy's C parsers (:mod:`hexcal.io.table_fast`: ``np.fromstring``
+        of the whole block, else ``np.loadtxt``), or None (they refused something, or cannot judge)."""
+        raw, d, width = block.raw, self._dialect.delimiter, len(self.columns)
+        if b'"' in raw or (self._dialect.decimal == "," and b"." in raw):
             return None
-        if self._dialect.decimal == ",":
-            text = text.replace(",", ".")
-        if not block.checked and text.count(d) != len(block) * (width - 1):
-            return None
-        use = sorted({*idx, width - 1})
-        converters = {k: (lambda s: 0.0) for k in use if k not in idx} or None  # text, not asked
-        try:
-            values = np.loadtxt(io.StringIO(text), delimiter=d, usecols=use, converters=converters,
-                                dtype=float, comments=None, quotechar=None, ndmin=2)  # fmt: skip
-        except ValueError:
-            return None
-        if values.shape[0] != len(block) or not np.isfinite(values).all():
-            return None
+        comma = self._dialect.decimal == ","
+        kid = self.columns.index("id") if "id" in self.columns else None
+        got = block_numbers(raw.replace(b",", b".") if comma else raw, block.ends, d, width, kid, idx)
+        if got is not None:  # the numbers and ids at once
+            values, cells, plain_cells = got
+        else:
+            text = block.text.replace(",", ".") if comma else block.text
+            got = loadtxt_numbers(text, len(block), d, width, idx, block.checked, kid)
+            if got is None:
+                return None
+            values, cells, plain_cells = got
         block.checked = True
-        if ids is not None:  # the id cells from the lines (cheaper than a converter in loadtxt)
-            k = self.columns.index("id")
-            rows = block.text.split("\n")[:-1]
-            ids.extend([r.partition(d)[0] for r in rows] if k == 0 else [r.split(d, k + 1)[k] for r in rows])
-        return values[:, [use.index(k) for k in idx]]
+        if ids is not None and cells is not None:
+            ids.extend(cells)
+            plain[0] = plain[0] and plain_cells
+        return values
 
     def _column(self, cells: list[str], block: TableBlock, name: str, empty: bool) -> NDArray[np.float64]:
         """One column converted cell by cell (numpy on the texts; on failure the first bad cell named)."""
@@ -377,18 +357,25 @@ class Table:
         k = self.columns.index(name)
         return [row[k].strip() for b in self._blocks for row in self._cells(b)]
 
-    def ids(self, seen: dict[str, int] | None = None, first: int = 1) -> tuple[str, ...]:
+    def ids(
+        self, seen: dict[str, int] | None = None, first: int = 1, repeats: bool = True
+    ) -> tuple[str, ...]:
         """The ``id`` column, or the row numbers ``first, first + 1, ...`` when there is none.
 
-        ``seen`` (id -> line) carries ids of earlier rows of the same file, refused here.
+        ``seen`` (id -> line) carries ids of earlier rows of the same file, refused here;
+        ``repeats=False`` leaves the repeats inside the table to the caller (every other check made).
         """
         if "id" not in self.columns:
             return tuple(str(first + k) for k in range(len(self)))
-        ids = self.cells("id")
+        plain = self._plain_ids and self._id_cells is not None  # checked as bytes while read
+        ids = self._id_cells if plain and self._id_cells is not None else self.cells("id")
+        if plain and seen is None and not repeats:
+            return tuple(ids)
         repeated = len(set(ids)) != len(ids) or (seen is not None and not seen.keys().isdisjoint(ids))
-        joined = "\n" + "\n".join(ids)
+        joined = "" if plain else "\n" + "\n".join(ids)
         formula = any(f"\n{mark}" in joined for mark in FORMULA_MARKS)
-        if repeated or "" in ids or "\n#" in joined or formula or not "".join(ids).isprintable():
+        odd = not plain and ("" in ids or "\n#" in joined or formula or not "".join(ids).isprintable())
+        if repeated or odd:
             self._id_error(ids, dict(seen or {}))
         if seen is not None:
             seen.update(zip(ids, self.lines, strict=True))

@@ -1,0 +1,210 @@
+"""Table blocks (data lines as one text) and their fast path: numbers and ids by whole-block calls.
+
+:class:`hexcal.io.tables.Table` converts a block of plain rows here first (issue 20, item 4:
+``ik``, ``fk`` and ``compensate`` on 10^6 rows were dominated by reading). One pass over
+the block's bytes finds the delimiters and proves that every row has the header's number of
+fields; the id cells are blanked out and ``np.fromstring`` parses all the other cells at once;
+the ids are gathered into one string and split, and checked as byte arrays. Whatever this
+path cannot judge exactly returns None, and the table converts the block the careful way
+(``np.loadtxt``, then cell by cell), which names the first bad cell: the results, errors and
+warnings are the same, only their cost differs.
+
+What ``np.fromstring(text, sep=d)`` accepts is a subset of what ``float`` accepts, rounded
+alike (the platform's correctly rounded ``strtod`` on ASCII text: no ``_``, no hexadecimal,
+no non-ASCII digits; it raises on anything else), with one exception: a blank field reads as
+-1. So a block with any -1 is left to the careful path, and so are tab-delimited files (a
+tab in ``sep`` would match any run of blanks, so ``1 2`` would be two numbers).
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+class TableBlock:
+    """Data lines of a table as one text: each row ends with ``\\n`` at ``ends[k]``.
+
+    The text is kept as the scanner read it: ASCII bytes for a chunk of plain rows (decoded only
+    if the careful path needs it), or a ``str`` for rows read line by line.
+    """
+
+    def __init__(
+        self, text: str | bytes, lines: NDArray[np.int64], ends: NDArray[np.int64], checked: bool
+    ) -> None:
+        self._text, self._raw = (None, text) if isinstance(text, bytes) else (text, None)
+        self.lines, self.ends, self.checked = lines, ends, checked
+
+    @property
+    def text(self) -> str:
+        if self._text is None:
+            assert self._raw is not None
+            self._text = self._raw.decode("ascii")
+        return self._text
+
+    @property
+    def raw(self) -> bytes:
+        """The text as bytes (UTF-8; the positions ``ends`` are those of the bytes when ASCII)."""
+        if self._raw is None:
+            assert self._text is not None
+            self._raw = self._text.encode("utf-8")
+        return self._raw
+
+    @classmethod
+    def of(cls, records: Sequence[str], lines: Sequence[int]) -> TableBlock:
+        ends = np.cumsum(np.fromiter(map(len, records), np.int64, len(records)) + 1) - 1
+        return cls("".join(f"{r}\n" for r in records), np.asarray(lines, np.int64), ends, True)
+
+    def __len__(self) -> int:
+        return len(self.lines)
+
+    def cut(self, k: int) -> tuple[TableBlock, TableBlock]:
+        at = int(self.ends[k - 1]) + 1
+        whole = self._text if self._text is not None else self.raw
+        head = TableBlock(whole[:at], self.lines[:k], self.ends[:k], self.checked)
+        return head, TableBlock(whole[at:], self.lines[k:], self.ends[k:] - at, self.checked)
+
+
+#: The first bytes of an id that the careful checks must judge: blank, ``#`` and formula marks.
+_ODD_FIRST = np.zeros(256, bool)
+_ODD_FIRST[: ord(" ") + 1] = True
+_ODD_FIRST[[ord(c) for c in "#=+-@"]] = True
+
+
+def _cell_bounds(
+    data: NDArray[np.uint8], ends: NDArray[np.int64], delimiter: str, width: int
+) -> NDArray[np.int64] | None:
+    """The delimiters of every row ``(rows, width - 1)``, or None when some row has another count."""
+    rows = len(ends)
+    cuts = np.flatnonzero(data == ord(delimiter))
+    if len(cuts) != rows * (width - 1):
+        return None
+    cuts = cuts.reshape(rows, width - 1)
+    if width > 1:
+        starts = np.empty_like(ends)
+        starts[0], starts[1:] = 0, ends[:-1] + 1
+        # the k-th group of width - 1 delimiters lies inside line k for every k exactly when
+        # each line holds width - 1 (the delimiters are sorted and the lines disjoint)
+        if not (np.all(cuts[:, 0] >= starts) and np.all(cuts[:, -1] < ends)):
+            return None
+    return cuts
+
+
+def _spans(first: NDArray[np.int64], stop: NDArray[np.int64]) -> NDArray[np.intp]:
+    """The positions ``first[k] <= p < stop[k]`` of every ``k``, in order (spans in increasing order).
+
+    One running sum: 1 from a position to the next inside a span, the jump to the next span's
+    first position at its start (``np.repeat`` of the offsets costs four times more).
+    """
+    lengths = stop - first
+    some = lengths > 0
+    if not some.all():
+        first, stop, lengths = first[some], stop[some], lengths[some]
+    if not len(lengths):
+        return np.empty(0, np.intp)
+    steps = np.ones(int(lengths.sum()), np.intp)
+    jumps = np.empty(len(first), np.intp)
+    jumps[0], jumps[1:] = first[0], first[1:] - (stop[:-1] - 1)
+    steps[np.cumsum(lengths) - lengths] = jumps
+    return np.cumsum(steps, out=steps)
+
+
+def block_numbers(
+    text: bytes, ends: NDArray[np.int64], delimiter: str, width: int, id_column: int | None, wanted: list[int]
+) -> tuple[NDArray[np.float64], list[str] | None, bool] | None:
+    """The numbers of the columns ``wanted`` ``(rows, len(wanted))``, the id cells and whether
+    they are plain, or None when the block needs the careful path.
+
+    ``text`` holds whole rows of ASCII bytes (no quotes, the decimal mark a point), each ended by
+    ``\\n`` at ``ends``. The id cells (``id_column``, never wanted) are returned as they are in
+    the file; they are *plain* when each is non-empty, without blanks around it, without control
+    characters, and starts with neither ``#`` nor a formula mark (``= + - @``): then they need
+    no other check than for repeats. The parser reads every column but the id, or only the run
+    of columns from the first wanted to the last when that saves enough (the cells outside it
+    are not read, as ``np.loadtxt``'s ``usecols`` does not convert them).
+    """
+    if delimiter == "\t" or not len(ends) or not text.isascii() or id_column in wanted:
+        return None
+    raw = bytearray(text)
+    data = np.frombuffer(raw, np.uint8)
+    cuts = _cell_bounds(data, ends, delimiter, width)
+    if cuts is None:
+        return None
+    starts = np.empty_like(ends)
+    starts[0], starts[1:] = 0, ends[:-1] + 1
+    ids, plain = None, False
+    if id_column is not None:
+        first = starts if id_column == 0 else cuts[:, id_column - 1] + 1
+        stop = cuts[:, id_column] if id_column < width - 1 else ends
+        taken = _spans(first, stop + 1)  # each cell and the byte after it (a delimiter or \n)
+        ids = data[taken].tobytes().decode("ascii").split(chr(data[stop[0]]))[:-1]
+        if len(ids) != len(ends):  # pragma: no cover - the delimiters were counted
+            return None
+        inner = data[_spans(first, stop)]
+        plain = bool(
+            np.all(stop > first)
+            and not _ODD_FIRST[data[first]].any()
+            and np.all(data[stop - 1] > ord(" "))
+            and not np.any((inner < ord(" ")) | (inner > ord("~")))
+        )
+    if not wanted:
+        return np.empty((len(ends), 0)), ids, plain
+    parsed = [k for k in range(width) if k != id_column]
+    low, high = min(wanted), max(wanted)
+    kept = high - low + 1
+    if (id_column is None or not low <= id_column <= high) and 5 * (len(parsed) - kept) > 2 * kept:
+        # gather the run of columns low..high of every row (each with the delimiter or \n after it)
+        parsed = list(range(low, high + 1))
+        first = starts if low == 0 else cuts[:, low - 1] + 1
+        part = data[_spans(first, (cuts[:, high] if high < width - 1 else ends) + 1)]
+        if high == width - 1:
+            part[part == ord("\n")] = ord(delimiter)
+        text_bytes = part.tobytes()
+    else:
+        if id_column is not None:  # the id cell and one delimiter beside it become blanks, skipped
+            data[_spans(first - (id_column == width - 1), stop + (id_column < width - 1))] = ord(" ")
+        data[ends] = ord(delimiter)
+        text_bytes = data.tobytes()
+    try:
+        values = np.fromstring(text_bytes, dtype=float, sep=delimiter)
+    except ValueError:
+        return None
+    if values.size != len(ends) * len(parsed) or not np.isfinite(values).all() or (values == -1.0).any():
+        return None
+    return values.reshape(len(ends), len(parsed))[:, [parsed.index(k) for k in wanted]], ids, plain
+
+
+def loadtxt_numbers(
+    text: str, rows: int, delimiter: str, width: int, idx: list[int], checked: bool, id_column: int | None
+) -> tuple[NDArray[np.float64], list[str] | None, bool] | None:
+    """The columns ``idx`` of a block by ``np.loadtxt``, the id cells (as in the file, never
+    plain), or None when it refuses something.
+
+    ``np.loadtxt`` accepts a subset of what ``float`` accepts (no ``_``, no non-ASCII digits)
+    and rounds alike. The last column is always read (its text converted to 0 if not asked):
+    with the total count of delimiters (unless the rows were ``checked``), that proves every
+    row has the header's fields.
+    """
+    if not checked and text.count(delimiter) != rows * (width - 1):
+        return None
+    use = sorted({*idx, width - 1})
+    converters = {k: (lambda s: 0.0) for k in use if k not in idx} or None  # text, not asked
+    try:
+        values = np.loadtxt(io.StringIO(text), delimiter=delimiter, usecols=use, converters=converters,
+                            dtype=float, comments=None, quotechar=None, ndmin=2)  # fmt: skip
+    except ValueError:
+        return None
+    if values.shape[0] != rows or not np.isfinite(values).all():
+        return None
+    ids = None
+    if id_column is not None:  # the id cells from the lines (cheaper than a converter in loadtxt)
+        lines, k = text.split("\n")[:-1], id_column
+        ids = (
+            [r.partition(delimiter)[0] for r in lines]
+            if k == 0
+            else [r.split(delimiter, k + 1)[k] for r in lines]
+        )
+    return values[:, [use.index(k) for k in idx]], ids, False
