@@ -160,7 +160,7 @@ def test_import_refuses_a_home_pose_outside_the_workspace(capsys, config):
     ini = re.sub(r"(\[AXIS_Z\]\n# workspace box, mm\n)MIN_LIMIT = \S+", r"\1MIN_LIMIT = 850.0", ini)
     (config / INI_FILE).write_text(ini)
     message = _import(capsys, config)
-    assert f"{HAL_FILE} and " in message and "home_pose: z = 800 is outside the workspace [850" in message
+    assert f"{HAL_FILE} and " in message and "home_pose: z = 800 mm is outside the workspace [850" in message
 
 
 def test_import_of_a_plausible_configuration_still_works(capsys, config):

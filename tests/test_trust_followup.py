@@ -81,3 +81,50 @@ def test_a_pose_covariance_acts_for_a_tool(campaigns, tmp_path: Path):
         results.append(data["bound"]["u1.x"])
     # a position σ of 1 mm instead of 0.015 mm: the bound of a joint coordinate grows many times
     assert results[1] > 5 * results[0]
+
+
+@pytest.mark.parametrize("kind", ["pose", "targets"])
+def test_a_reading_that_makes_a_leg_negative_is_named(kind, campaigns):
+    data = campaigns.data(kind)
+    bad = data.with_name(f"{kind}-negative.csv")
+    from instrument_campaigns import edit_columns
+
+    edit_columns(data, bad, ("dl1",), lambda v, c: -900.0, rows={"r05"})
+    done, files = identify(campaigns, kind, bad, f"{kind}-negative")
+    line = _one_line(done.err)
+    assert done.code == 1 and "pose r05: dl1 = -900" in line and bad.name in line and "no real leg" in line
+    assert not any(path.exists() for path in files.values())
+
+
+@pytest.mark.parametrize("option", [("--max-change", "0.0001"), ("--sigma-limit", "1e-9")])
+def test_verdict_limits_act_with_a_setup(option, campaigns):
+    """With a tracker setup, --max-change (every change implausible) and --sigma-limit (every
+    parameter undetermined) turn a healthy calibration into a fail that writes nothing."""
+    done, files = identify(campaigns, "targets", campaigns.data("targets"), f"limit{option[0]}", *option)
+    assert done.code == 1 and "FAIL" in done.out
+    assert not any(path.exists() for path in files.values())
+
+
+def test_masked_leg_noise_is_said_never_nan(tmp_path: Path):
+    """Pose noise far above the leg noise, 15 poses: the leg σ is barely learnable; no report
+    prints nan for it (a σ that cannot be learned is said in words)."""
+    poses = tmp_path / "p.csv"
+    assert run("candidates", "--geometry", "paper-hmt", "--candidates", "random:15", "--seed", 3,
+               "--out", poses).code == 0  # fmt: skip
+    data = tmp_path / "m.csv"
+    assert run("synthesize", "--nominal", "paper-hmt", "--true", "paper-hmt-true", "--poses", poses,
+               "--noise", "leg=1e-5,pos=0.2,ang=0.01", "--noise-dist", "normal", "--seed", 4,
+               "--out", data).code == 0  # fmt: skip
+    out = {k: tmp_path / f"r.{k}" for k in ("yaml", "txt", "json", "html")}
+    done = run("identify", "--geometry", "paper-hmt", "--data", data, "--out", out["yaml"], "--report",
+               out["txt"], "--json", out["json"], "--html", out["html"], "--force")  # fmt: skip
+    assert done.code in (0, 1), done.err
+    texts = [done.out, *(p.read_text() for p in out.values() if p.exists())]
+    assert len(texts) == 5
+    for text in texts:
+        assert "± nan" not in text and " nan mm" not in text and "σ nan" not in text and "nan ±" not in text
+
+
+def test_errormap_budget_names_the_option_to_lower(tmp_path: Path):
+    done = run("errormap", "--geometry", "paper-hmt", "--draws", 1_000_000_000, "--out", tmp_path / "e")
+    assert done.code != 0 and "--draws" in _one_line(done.err) and not (tmp_path / "e").exists()

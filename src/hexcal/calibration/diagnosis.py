@@ -172,7 +172,7 @@ def _units(
         for quality, code, text in fits:
             others = [q.rms for q, c, _ in fits if c != code]
             if _explains(quality.rms, base, others):
-                where = f"{session.label}: " if len(sessions) > 1 and session.label else ""
+                where = f"{session.label}: " if session.label else ""
                 before = base.text() if np.isfinite(base.rms) else "a failed fit"
                 return Reason(
                     code,
@@ -185,7 +185,8 @@ def _units(
 
 
 def absolute_readings(start: Geometry, sessions: Sequence[Any]) -> str | None:
-    """The message for readings that are plainly absolute strut lengths, found before any fit:
+    """The message for readings no leg can have, found before any fit: a reading that makes its
+    leg 0 mm or shorter (naming the pose), or readings that are plainly absolute strut lengths:
     every reading lies within the machine's leg lengths (its limits, else the lengths over its
     workspace box or at its home pose, widened by 20 %), while every length the readings would
     give (``l0 + g dl``) lies beyond them; None otherwise."""
@@ -205,6 +206,16 @@ def absolute_readings(start: Geometry, sessions: Sequence[Any]) -> str | None:
         if readings is None or not np.size(readings):
             continue
         given = leg_lengths(start, readings)
+        short = np.flatnonzero(np.any(given <= 0, axis=1))
+        if short.size:
+            ids = session.instrument.ids(session.data)
+            row, leg = int(short[0]), int(np.argmin(given[short[0]]))
+            where = f"{session.label}: " if session.label else ""
+            more = f" (and {short.size - 1} more)" if short.size > 1 else ""
+            return (
+                f"{where}pose {ids[row]}{more}: dl{leg + 1} = {readings[row, leg]:.6g} makes leg {leg + 1} "
+                f"{given[row, leg]:.6g} mm long (l0 + g dl), no real leg; a sign or unit slip in that column?"
+            )
         if np.all((readings >= low) & (readings <= high)) and np.all(given > high):
             where = f"{session.label}: " if session.label else ""
             return (

@@ -235,7 +235,8 @@ def check_options(args: argparse.Namespace) -> None:
             (values.get("levels") or 1) * (values.get("points") or 1), (values.get("grid") or 1) ** 2
         )
         option = "--grid" if (values.get("grid") or 1) ** 2 >= points else "--levels/--points"
-        _budget(option, 48 * 4 * draws * points, "the error maps")
+        option = "--draws" if draws >= points else option  # the larger factor is the one to lower
+        _budget(f"{option} (with the others)", 48 * 4 * draws * points, "the error maps")
     _check_lists(values)
     trials = values.get("trials")
     if isinstance(trials, int):  # every Monte Carlo command: paper, simulate, study

@@ -211,9 +211,13 @@ class Geometry:
             out = np.flatnonzero((home < self.workspace[:, 0] - tol) | (home > self.workspace[:, 1] + tol))
             if out.size:
                 k = int(out[0])
+                # the file's units: mm, and degrees for the angles (a_deg, b_deg, c_deg)
+                scale, name, unit = (
+                    (1.0, POSE_NAMES[k], "mm") if k < 3 else (180 / np.pi, f"{POSE_NAMES[k]}_deg", "deg")
+                )
                 raise GeometryError(
-                    f"home_pose: {POSE_NAMES[k]} = {home[k]:g} is outside the workspace "
-                    f"[{self.workspace[k, 0]:g}, {self.workspace[k, 1]:g}]"
+                    f"home_pose: {name} = {home[k] * scale:g} {unit} is outside the workspace "
+                    f"[{self.workspace[k, 0] * scale:g}, {self.workspace[k, 1] * scale:g}] {unit}"
                 )
         if self.leg_length_limits is not None:
             from scipy.spatial.transform import Rotation  # deferred: slow to import

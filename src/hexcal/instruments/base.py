@@ -152,9 +152,11 @@ class MeasurementModel(ABC):
     def uses_pose_covariance(self) -> bool:
         """Whether a full pose covariance (:attr:`NoiseModel.pose_covariance`) changes this
         instrument's noise: it does for an instrument that measures a pose, not for targets."""
-        plain = NoiseModel(0.0, 1.0, 1.0, distribution="normal")
-        full = NoiseModel(0.0, 1.0, 1.0, "normal", pose_covariance=np.diag([4.0] * 3 + [9.0] * 3))
-        return not np.array_equal(np.asarray(self.covariance(plain)), np.asarray(self.covariance(full)))
+        # two covariances with the same σ per group (NoiseModel.sigmas) but another shape: only an
+        # instrument that uses the matrix itself tells them apart
+        shaped = NoiseModel(0.0, 1.0, 1.0, "normal", pose_covariance=np.diag([1.0, 4.0, 9.0] * 2))
+        even = NoiseModel(0.0, 1.0, 1.0, "normal", pose_covariance=np.eye(6) * 14.0 / 3.0)
+        return not np.array_equal(np.asarray(self.covariance(shaped)), np.asarray(self.covariance(even)))
 
     def group_labels(self) -> dict[str, str]:
         """What each noise group is called in reports (``targets`` for target positions)."""

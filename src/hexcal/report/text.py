@@ -34,11 +34,11 @@ def paper_text(summary: dict[str, Any]) -> str:
     lines = [
         f"Table I: mean absolute error of the 42 parameters (mm), {t} trials; "
         f"the paper's rows use method {summary['method']!r}",
-        f"  {'row':<46}{'hexcal mean':>12}{'std':>9}{'bound':>9}{'eff.':>7}{'paper':>9}",
+        f"  {'row':<46}{'hexcal mean':>12}{'std':>9}{'bound':>9}{'eff.':>8}{'paper':>9}",
     ]
     for key, label in summary["rows"].items():
         bound = summary["bound"].get(key)
-        b_text = f"{bound['bound']:>9.4f}{bound['efficiency']:>7.2f}" if bound else f"{'':>16}"
+        b_text = f"{bound['bound']:>9.4f} {bound['efficiency']:>7.2f}" if bound else f"{'':>17}"
         reference = summary.get("paper", {})
         paper = f"{reference[key]:>9.4f}" if key in reference else f"{'-':>9}"
         lines.append(f"  {label:<46}{summary[key]:>12.4f}{summary['std'][key]:>9.4f}{b_text}{paper}")
@@ -74,17 +74,17 @@ def study_text(rows: list[dict[str, Any]]) -> str:
     ...        "error_std": 0.1, "bound": 0.25, "efficiency": 1.2, "position_rms": 0.01,
     ...        "orientation_rms": 2e-6}
     >>> print(study_text([row]).splitlines()[-1])
-      corners       15  x1        ml          0.3000  0.1000  0.2500  1.20          0.01         2e-06
+      corners       15  x1        ml          0.3000  0.1000  0.2500    1.20          0.01         2e-06
     """
     head = (
         f"  {'strategy':<10}{'poses':>6}  {'noise':<10}{'method':<8}{'error mm':>10}{'std':>8}"
-        f"{'bound':>8}{'eff.':>6}{'val. pos rms':>14}{'val. ang rms':>14}"
+        f"{'bound':>8}{'eff.':>8}{'val. pos rms':>14}{'val. ang rms':>14}"
     )
     lines = ["Mean absolute parameter error over the trials, its Cramér–Rao bound and validation", head]
     for r in rows:
         lines.append(
             f"  {r['strategy']:<10}{r['poses']:>6}  {r['noise']:<10}{r['method']:<8}{r['error_mean']:>10.4f}"
-            f"{r['error_std']:>8.4f}{r['bound']:>8.4f}{r['efficiency']:>6.2f}"
+            f"{r['error_std']:>8.4f}{r['bound']:>8.4f} {r['efficiency']:>7.2f}"
             f"{r['position_rms']:>14.4g}{r['orientation_rms']:>14.3g}"
         )
     return "\n".join(lines)
