@@ -128,3 +128,19 @@ def test_masked_leg_noise_is_said_never_nan(tmp_path: Path):
 def test_errormap_budget_names_the_option_to_lower(tmp_path: Path):
     done = run("errormap", "--geometry", "paper-hmt", "--draws", 1_000_000_000, "--out", tmp_path / "e")
     assert done.code != 0 and "--draws" in _one_line(done.err) and not (tmp_path / "e").exists()
+
+
+def test_a_long_number_under_the_field_limit_is_quick_and_not_echoed(campaigns, tmp_path: Path):
+    """A field of 100,000 digits (under the 131,072-character field limit): one short line at once."""
+    from instrument_campaigns import edit_columns, read_csv, write_csv
+
+    bad = tmp_path / "long.csv"
+    edit_columns(campaigns.data("pose"), bad, ("dl3",), lambda v, c: v, rows={"r05"})
+    comments, header, body = read_csv(bad)
+    body[5][header.index("dl3")] = "1" * 100_000
+    write_csv(bad, comments, header, body)
+    done = run("identify", "--geometry", "paper-hmt", "--data", bad, "--out", tmp_path / "x.yaml")
+    line = _one_line(done.err)
+    # not repeated in full (the error line once took 30-40 s of regular-expression backtracking
+    # over it, and was 100 kB long)
+    assert done.code == 1 and "(100,000 characters)" in line and len(line) < 400

@@ -356,5 +356,17 @@ def error_line(exc: BaseException) -> str:
         text = "out of memory; reduce the size of the problem (fewer rows, trials or points)"
     else:
         text = str(exc) or name
-    text = _untemp(" ".join(text.split()))
+    text = _untemp(" ".join(_clipped(word) for word in text.split()))
     return f"hexcal: error: {text}"
+
+
+#: A word of an error line longer than this is shown by its ends and its length.
+LONGEST_WORD = 200
+
+
+def _clipped(word: str) -> str:
+    """``word``, or its ends and length when it is longer than :data:`LONGEST_WORD` (a field of
+    100,000 digits is not repeated in full, nor searched for temporary names)."""
+    if len(word) <= LONGEST_WORD:
+        return word
+    return f"{word[:60]}...{word[-20:]} ({len(word):,} characters)"

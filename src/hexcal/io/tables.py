@@ -347,7 +347,7 @@ class Table:
         except ValueError:
             raise InputError(f"{where}: not a number: {_shown(text)}") from None
         if not np.isfinite(value):
-            raise InputError(f"{where}: {text} is not a finite number")
+            raise InputError(f"{where}: {text if len(text) <= 40 else _shown(text)} is not a finite number")
         return value
 
     def cells(self, name: str) -> list[str]:
