@@ -18,6 +18,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 import pytest
 
+from browser_support import browser  # noqa: F401  (one session-wide Chromium for every test module)
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
 from hexcal.core.noise import NoiseModel

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from browser_support import browser, open_report, screenshot  # noqa: F401  (fixture)
+from browser_support import open_report, screenshot
 from hexcal.calibration import estimate, validate
 from hexcal.core.noise import NoiseModel
 from hexcal.core.presets import preset
@@ -53,7 +53,7 @@ def test_report_is_self_contained(identify_page: Path) -> None:
     assert text.count("<svg") == 5
 
 
-def test_identify_page_in_the_browser(browser, identify_page: Path) -> None:  # noqa: F811
+def test_identify_page_in_the_browser(browser, identify_page: Path) -> None:
     opened = open_report(browser, identify_page)
     page = opened.page
     try:
@@ -92,7 +92,7 @@ def test_identify_page_in_the_browser(browser, identify_page: Path) -> None:  # 
         page.context.close()
 
 
-def test_validation_page_in_the_browser(browser, tmp_path: Path, data: Measurements) -> None:  # noqa: F811
+def test_validation_page_in_the_browser(browser, tmp_path: Path, data: Measurements) -> None:
     calibrated = estimate(NOMINAL, data, "ml", robust=True).geometry
     held_out = simulate_measurements(NOMINAL, TRUE, workspace_corners(NOMINAL)[40:], NoiseModel(), 2)
     report = validation_report(
@@ -144,7 +144,7 @@ def command_pages(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     ],
 )
 def test_command_page_in_the_browser(
-    browser,  # noqa: F811
+    browser,
     command_pages: dict[str, Path],
     name: str,
     figures: int,
@@ -204,7 +204,7 @@ def test_html_target_refused_up_front(tmp_path: Path, capsys: pytest.CaptureFixt
 # -- pages a person reads (tests/test_report_pages.py builds them) ------------------------------
 
 
-def test_hostile_pages_in_the_browser(browser, tmp_path: Path) -> None:  # noqa: F811
+def test_hostile_pages_in_the_browser(browser, tmp_path: Path) -> None:
     """Pose ids like ``<img src=x onerror=...>`` and a geometry named ``<script>...``: no
     dialog, no image, no error; the page shows them as text."""
     paths, _ = hostile_pages(tmp_path)
@@ -222,7 +222,7 @@ def test_hostile_pages_in_the_browser(browser, tmp_path: Path) -> None:  # noqa:
             opened.page.context.close()
 
 
-def test_tracker_identify_page_in_the_browser(browser, tmp_path: Path) -> None:  # noqa: F811
+def test_tracker_identify_page_in_the_browser(browser, tmp_path: Path) -> None:
     """A tracker campaign's identify page: sessions, the setup in degrees, every figure drawn."""
     opened = open_report(browser, tracker_identify_page(tmp_path))
     page = opened.page

@@ -18,7 +18,7 @@ import json
 import numpy as np
 import pytest
 
-from browser_support import browser, open_report, screenshot  # noqa: F401  (fixture)
+from browser_support import open_report, screenshot
 from hexcal.calibration import circular_tests, validate
 from hexcal.cli.main import main
 from hexcal.core import NoiseModel, preset, random_poses
@@ -112,7 +112,7 @@ def test_circle_before_and_after(campaign, circle_run):
     assert 'data-figure="polar"' in page and "µm/div" in page and "Validation summary" in page
 
 
-def test_the_iso_page_in_the_browser(browser, campaign, circle_run):  # noqa: F811
+def test_the_iso_page_in_the_browser(browser, campaign, circle_run):
     opened = open_report(browser, campaign["tmp"] / "iso.html")
     try:
         assert not opened.page_errors and not opened.console_errors and not opened.blocked
