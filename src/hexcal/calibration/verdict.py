@@ -302,7 +302,7 @@ def _outlier_reasons(result: Any, problem: Any, noise: Any) -> list[Reason]:
     if len(problem) != result.n_poses:
         return []
     try:
-        scores = screen_poses(result.start, problem=problem, noise=noise)
+        scores = screen_poses(result.start, problem=problem, noise=noise, studentized=True)
     except (HexcalError, ValueError, np.linalg.LinAlgError):  # the screening is advisory
         return []
     out = []
