@@ -208,3 +208,47 @@ def loadtxt_numbers(
             else [r.split(delimiter, k + 1)[k] for r in lines]
         )
     return values[:, [use.index(k) for k in idx]], ids, False
+
+
+#: Ids longer than this are left to the set of ids seen.
+ORDER_CHARS = 64
+
+
+def strictly_increasing(ids: Sequence[str]) -> bool:
+    """Whether ``ids`` are ASCII in strictly increasing order of (length, bytes): then no two
+    are equal, and a Python set of them is not needed to prove it.
+
+    Row numbers (``1, 2, ..., 10, ...``), ``p0, p1, ...``, zero-padded counters and time stamps
+    are in this order. False says only that this test cannot show the ids distinct (unordered,
+    non-ASCII, or longer than :data:`ORDER_CHARS`). Vectorised over the ids; the loop is over
+    their 8-byte words, on the pairs of equal length not decided yet.
+    """
+    if len(ids) < 2:
+        return True
+    joined = "\n".join(ids)
+    if not joined.isascii():
+        return False
+    data = np.frombuffer(joined.encode("ascii") + b"\n", np.uint8)
+    ends = np.flatnonzero(data == 10)
+    if len(ends) != len(ids):  # an id with a line break
+        return False
+    starts = np.empty_like(ends)
+    starts[0], starts[1:] = 0, ends[:-1] + 1
+    lengths = ends - starts
+    if np.any(lengths[1:] < lengths[:-1]) or lengths.max() > ORDER_CHARS:
+        return False
+    # the ids' bytes, NUL-padded to whole 8-byte words: for ids of one length, the order of
+    # their bytes is that of the words read as big-endian integers, word after word
+    width = -(-int(lengths.max()) // 8) * 8
+    at = starts[:, None] + np.arange(width)
+    padded = np.where(np.arange(width) < lengths[:, None], data[np.minimum(at, len(data) - 1)], 0)
+    words = np.ascontiguousarray(padded, np.uint8).view(">u8")
+    pairs = np.flatnonzero(lengths[1:] == lengths[:-1])  # ids k and k + 1 of the same length
+    for j in range(words.shape[1]):
+        a, b = words[pairs, j], words[pairs + 1, j]
+        if np.any(a > b):
+            return False
+        pairs = pairs[a == b]
+        if not len(pairs):
+            return True
+    return False  # equal in every word: a repeat

