@@ -169,7 +169,10 @@ def test_block_numbers_declines_what_it_cannot_judge() -> None:
         block_numbers(b"a,1\nb,3,4,5\n", ends(b"a,1\nb,3,4,5\n"), ",", 3, 0, [1, 2]) is None
     )  # field counts
     assert block_numbers(b"a\t1\t2\n", ends(b"a\t1\t2\n"), "\t", 3, 0, [1, 2]) is None  # tabs: loadtxt
-    assert block_numbers(b"a,1,-1\n", ends(b"a,1,-1\n"), ",", 3, 0, [1, 2]) is None  # -1: careful
+    values, _, _ = block_numbers(b"a,1,-1\n", ends(b"a,1,-1\n"), ",", 3, 0, [1, 2])
+    assert values.tolist() == [[1.0, -1.0]]  # a -1 is read (np.fromstring gave it to blanks)
+    for blank in (b"a,1,\n", b"a,1, \n", b"a,1,nan\n", b"a,1,1_0\n"):  # the careful path names them
+        assert block_numbers(blank, ends(blank), ",", 3, 0, [1, 2]) is None
     assert block_numbers(b"a,1,2\n", ends(b"a,1,2\n"), ",", 3, 0, [0, 1]) is None  # the id as a number
     values, ids, plain = block_numbers(b" a,1,2\n", ends(b" a,1,2\n"), ",", 3, 0, [2])
     assert ids == [" a"] and not plain and values.tolist() == [[2.0]]
