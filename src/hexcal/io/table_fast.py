@@ -198,6 +198,8 @@ def loadtxt_numbers(
 
 #: Ids longer than this are left to the set of ids seen.
 ORDER_CHARS = 64
+#: Ids checked for their order at a time (each part with the last id of the one before).
+ORDER_ROWS = 16_384
 
 
 def strictly_increasing(ids: Sequence[str]) -> bool:
@@ -209,6 +211,10 @@ def strictly_increasing(ids: Sequence[str]) -> bool:
     non-ASCII, or longer than :data:`ORDER_CHARS`). Vectorised over the ids; the loop is over
     their 8-byte words, on the pairs of equal length not decided yet.
     """
+    if len(ids) > ORDER_ROWS:  # in parts (temporaries of a whole table cost more than a set)
+        return all(
+            strictly_increasing(ids[max(k - 1, 0) : k + ORDER_ROWS]) for k in range(0, len(ids), ORDER_ROWS)
+        )
     if len(ids) < 2:
         return True
     joined = "\n".join(ids)

@@ -173,6 +173,7 @@ class Table:
         self._dialect = Dialect(path, ",", ",", None)
         self._blocks = [TableBlock.of(records, lines)] if len(records) else []
         self._numbers: dict[str, NDArray[np.float64]] = {}
+        self._whole: dict[tuple[str, ...], NDArray[np.float64]] = {}  # the columns converted together
         self._id_cells: list[str] | None = None
         self._plain_ids = False  # the id cells are stripped and need only the check for repeats
 
@@ -250,6 +251,9 @@ class Table:
             self._convert(todo, empty)
         if not names:
             return np.empty((len(self), 0))
+        whole = self._whole.get(tuple(names))
+        if whole is not None:  # the columns as converted together: one copy of contiguous memory
+            return whole.copy()
         return np.column_stack([self._numbers[n] for n in names])
 
     def _convert(self, names: list[str], empty: bool) -> None:
@@ -277,6 +281,7 @@ class Table:
         out = np.concatenate(parts) if parts else np.empty((0, len(names)))
         for c, name in enumerate(names):
             self._numbers[name] = out[:, c]  # views of one array (no copies of a whole table)
+        self._whole[tuple(names)] = out
         if want_ids:
             self._id_cells, self._plain_ids = id_cells, plain[0]
 
