@@ -3,8 +3,9 @@
 :class:`hexcal.io.tables.Table` converts a block of plain rows here first (issue 20, item 4:
 ``ik``, ``fk`` and ``compensate`` on 10^6 rows were dominated by reading). One pass over
 the block's bytes finds the delimiters and proves that every row has the header's number of
-fields; ``np.loadtxt`` converts the cells of the columns wanted at once (its C reader: twice
-as fast as ``np.fromstring``, and it skips the cells of the other columns); the ids are
+fields; ``np.loadtxt`` converts the cells of the columns wanted at once (its C reader: a
+quarter less time than ``np.fromstring`` on a block of pose rows, 10.5 against 13.5 ms for
+16,000 rows, and it skips the cells of the other columns); the ids are
 gathered into one string and split, and checked as byte arrays. Whatever this path cannot
 judge exactly returns None, and the table converts the block the careful way (``np.loadtxt``
 with the delimiters counted, then cell by cell), which names the first bad cell: the results,
@@ -151,7 +152,7 @@ def block_numbers(
     if not wanted:
         return np.empty((len(ends), 0)), ids, plain
     # every row has the header's fields (the delimiters counted): numpy's C reader converts
-    # only the columns wanted (faster than np.fromstring of them, which strtod's locale costs)
+    # only the columns wanted (a quarter faster than np.fromstring of them)
     use = sorted(wanted)
     try:
         values = np.loadtxt(io.BytesIO(text), delimiter=delimiter, usecols=use, dtype=float,
