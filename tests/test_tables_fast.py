@@ -169,7 +169,56 @@ def test_block_numbers_declines_what_it_cannot_judge() -> None:
         block_numbers(b"a,1\nb,3,4,5\n", ends(b"a,1\nb,3,4,5\n"), ",", 3, 0, [1, 2]) is None
     )  # field counts
     assert block_numbers(b"a\t1\t2\n", ends(b"a\t1\t2\n"), "\t", 3, 0, [1, 2]) is None  # tabs: loadtxt
-    assert block_numbers(b"a,1,-1\n", ends(b"a,1,-1\n"), ",", 3, 0, [1, 2]) is None  # -1: careful
+    values, _, _ = block_numbers(b"a,1,-1\n", ends(b"a,1,-1\n"), ",", 3, 0, [1, 2])
+    assert values.tolist() == [[1.0, -1.0]]  # a -1 is read (np.fromstring gave it to blanks)
+    for blank in (b"a,1,\n", b"a,1, \n", b"a,1,nan\n", b"a,1,1_0\n"):  # the careful path names them
+        assert block_numbers(blank, ends(blank), ",", 3, 0, [1, 2]) is None
     assert block_numbers(b"a,1,2\n", ends(b"a,1,2\n"), ",", 3, 0, [0, 1]) is None  # the id as a number
     values, ids, plain = block_numbers(b" a,1,2\n", ends(b" a,1,2\n"), ",", 3, 0, [2])
     assert ids == [" a"] and not plain and values.tolist() == [[2.0]]
+
+
+@pytest.mark.parametrize(
+    "ids, expected",
+    [
+        ([f"p{k}" for k in range(1200)], True),  # p9 < p10: shorter first
+        ([str(k) for k in range(1, 200)], True),  # the default row numbers
+        ([f"{k:06d}" for k in range(50)], True),
+        (["a" * 20 + "b", "a" * 20 + "c"], True),  # decided in the third 8-byte word
+        (["a", "b", "b"], False),  # a repeat
+        (["a" * 20, "a" * 20], False),
+        (["b", "a"], False),
+        (["10", "9"], False),
+        (["a", "ab", "ac", "b"], False),  # shorter after longer
+        (["é", "f"], False),  # not ASCII: left to the set
+        (["x" * 65, "x" * 64 + "y"], False),  # over ORDER_CHARS: left to the set
+    ],
+)
+def test_strictly_increasing_ids_are_shown_distinct_without_a_set(ids: list[str], expected: bool) -> None:
+    assert table_fast.strictly_increasing(ids) is expected
+    if expected:  # what it promises
+        assert len(set(ids)) == len(ids)
+
+
+@pytest.mark.parametrize(
+    "ids, error",
+    [
+        (["a", "b", "c", "d", "e"], None),
+        (["a", "b", "b", "c", "d"], "line 4, column 'id': id 'b' repeats line 3"),  # in one block
+        (["a", "b", "c", "c", "d"], "line 5, column 'id': id 'c' repeats line 4"),  # across two
+        (["a", "b", "d", "e", "b"], "line 6, column 'id': id 'b' repeats line 3"),  # after order ends
+        (["b", "a", "c", "d", "a"], "line 6, column 'id': id 'a' repeats line 3"),  # never in order
+    ],
+)
+def test_repeats_are_found_whether_or_not_the_blocks_are_in_order(
+    tmp_path: Path, ids: list[str], error: str | None
+) -> None:
+    path = tmp_path / "p.csv"
+    path.write_text(HEADER + "".join(ROW.format(i) for i in ids))
+    for read in (lambda: list(iter_poses(path, "XYZ", block_rows=2)), lambda: [read_poses(path, "XYZ")]):
+        if error is None:
+            assert sum((b[1] for b in read()), ()) == tuple(ids)
+        else:
+            with pytest.raises(InputError) as info:
+                read()
+            assert str(info.value) == f"{path}: {error}"

@@ -65,7 +65,10 @@ def cmd_compensate(args: argparse.Namespace) -> None:
     kept_ids = list(ids) if keep.all() else [i for i, k in zip(ids, keep, strict=True) if k]
     if args.corrected_poses and comp.corrected_poses is not None:
         _warn_outside_box(geometry, comp.corrected_poses[keep], kept_ids, "corrected pose(s)")
-    write_legs(args.out, comp.lengths[keep], comp.readings[keep], kept_ids)
+    lengths, readings = comp.lengths, comp.readings
+    if not keep.all():  # (every target feasible: no copies of the whole arrays)
+        lengths, readings = lengths[keep], readings[keep]
+    write_legs(args.out, lengths, readings, kept_ids)
     if args.corrected_poses and comp.corrected_poses is not None:
         _write_poses_like(table, args.corrected_poses, comp.corrected_poses[keep], kept_ids, geometry.euler)
         print(f"wrote corrected target poses for the nominal controller to {args.corrected_poses}")

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from hexcal.errors import InputError, InputWarning
 from hexcal.instruments.pose import Measurements
 from hexcal.io.inputs import DEFAULT_MAX_ROWS, MEASUREMENT_MAX_ROWS
+from hexcal.io.table_fast import strictly_increasing
 from hexcal.io.table_reading import iter_tables, read_table
 from hexcal.io.table_writing import write_legs, write_measurements, write_poses
 from hexcal.io.tables import BLOCK_ROWS, LEG_LENGTH_COLUMNS, LEG_READING_COLUMNS, ORIENTATION_GROUPS, Table
@@ -196,17 +197,30 @@ def _legs(table: Table, ids: Callable[[], tuple[str, ...]]) -> LegData:
 class _BlockIds:
     """Ids across the blocks of one file: repeats refused, naming the line of the first one.
 
-    A set keeps the ids seen (a dict of their lines would cost several times more); the line
-    of an earlier id is looked up by reading the file again, only when one repeats.
+    While the ids run in strictly increasing order (:func:`~hexcal.io.table_fast.strictly_increasing`,
+    each block's first after the last one before it), they are distinct without a set: a set of
+    10^6 ids cost more than reading them. From the first block out of order, a set keeps the ids
+    seen (those of the ordered blocks before it read from the file again; a dict of their lines
+    would cost several times more); the line of an earlier id is looked up by reading the file
+    again, only when one repeats.
     """
 
     def __init__(self, blocks: Callable[[], Iterator[Table]]) -> None:
         self.seen: set[str] = set()
         self.count, self.again = 0, blocks
+        self.last: str | None = None  # the last id while every block so far was in order
+        self.ordered = True
 
     def __call__(self, table: Table) -> tuple[str, ...]:
         if table.has("id"):
             ids = table.ids(repeats=False)  # every check but for repeats, which the set shows
+            if self.ordered and ids:
+                if strictly_increasing(ids if self.last is None else (self.last, *ids)):
+                    self.last = ids[-1]
+                    self.count += len(ids)
+                    return ids
+                self.ordered = False
+                self.seen = set(self._earlier(None, table.line(0)))
             before = len(self.seen)
             self.seen.update(ids)
             if len(self.seen) != before + len(ids):  # a repeat inside the block, or of an earlier one
@@ -217,14 +231,15 @@ class _BlockIds:
         self.count += len(ids)
         return ids
 
-    def _earlier(self, ids: set[str], stop: int) -> dict[str, int]:
-        """The first line of each of ``ids`` before line ``stop`` (read from the file again)."""
+    def _earlier(self, ids: set[str] | None, stop: int) -> dict[str, int]:
+        """The first line of each of ``ids`` (None: of every id) before line ``stop`` (read from
+        the file again)."""
         found: dict[str, int] = {}
         for block in self.again():
             for value, line in zip(block.cells("id"), block.lines, strict=True):
                 if line >= stop:
                     return found
-                if value in ids:
+                if ids is None or value in ids:
                     found.setdefault(value, line)
         return found
 

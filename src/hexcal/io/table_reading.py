@@ -80,16 +80,21 @@ class _Scanner:
                                 InputWarning,
                                 stacklevel=4,
                             )
-                    buf = rest + data
                     if not data:
                         break
-                    cut = max(buf.rfind(b"\n"), buf.rfind(b"\r", 0, len(buf) - 1)) + 1
-                    if cut == 0:  # no whole line yet
-                        rest = buf
-                        if len(rest) > MAX_LINE_CHARS:
-                            raise InputError(f"{name}: line {lineno}: over {MAX_LINE_CHARS:,} characters")
-                        continue
-                    piece, rest = buf[:cut], buf[cut:]
+                    # the last line break of the chunk (a CR at its end may be half a CRLF)
+                    cut = max(data.rfind(b"\n"), data.rfind(b"\r", 0, len(data) - 1)) + 1
+                    if cut:  # the piece in one copy (rest + data, then a slice of it, were two)
+                        piece, rest = b"".join((rest, memoryview(data)[:cut])), data[cut:]
+                    else:
+                        buf = rest + data
+                        cut = max(buf.rfind(b"\n"), buf.rfind(b"\r", 0, len(buf) - 1)) + 1
+                        if cut == 0:  # no whole line yet
+                            rest = buf
+                            if len(rest) > MAX_LINE_CHARS:
+                                raise InputError(f"{name}: line {lineno}: over {MAX_LINE_CHARS:,} characters")
+                            continue
+                        piece, rest = buf[:cut], buf[cut:]
                     found, count = self._piece(lineno, piece)
                     lineno += count
                     yield from (block for block in found if len(block))

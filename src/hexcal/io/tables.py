@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning, UsageError
-from hexcal.io.table_fast import TableBlock, block_numbers, loadtxt_numbers
+from hexcal.io.table_fast import TableBlock, block_numbers, loadtxt_numbers, strictly_increasing
 
 #: Rows converted (or read, by ``iter_tables``) at a time.
 BLOCK_ROWS = 16_384
@@ -173,6 +173,7 @@ class Table:
         self._dialect = Dialect(path, ",", ",", None)
         self._blocks = [TableBlock.of(records, lines)] if len(records) else []
         self._numbers: dict[str, NDArray[np.float64]] = {}
+        self._whole: dict[tuple[str, ...], NDArray[np.float64]] = {}  # the columns converted together
         self._id_cells: list[str] | None = None
         self._plain_ids = False  # the id cells are stripped and need only the check for repeats
 
@@ -250,6 +251,9 @@ class Table:
             self._convert(todo, empty)
         if not names:
             return np.empty((len(self), 0))
+        whole = self._whole.get(tuple(names))
+        if whole is not None:  # the columns as converted together: one copy of contiguous memory
+            return whole.copy()
         return np.column_stack([self._numbers[n] for n in names])
 
     def _convert(self, names: list[str], empty: bool) -> None:
@@ -277,6 +281,7 @@ class Table:
         out = np.concatenate(parts) if parts else np.empty((0, len(names)))
         for c, name in enumerate(names):
             self._numbers[name] = out[:, c]  # views of one array (no copies of a whole table)
+        self._whole[tuple(names)] = out
         if want_ids:
             self._id_cells, self._plain_ids = id_cells, plain[0]
 
@@ -371,7 +376,10 @@ class Table:
         ids = self._id_cells if plain and self._id_cells is not None else self.cells("id")
         if plain and seen is None and not repeats:
             return tuple(ids)
-        repeated = len(set(ids)) != len(ids) or (seen is not None and not seen.keys().isdisjoint(ids))
+        # ids in strictly increasing order are distinct: no set of them needed (10^6 ids: 0.1 s)
+        repeated = (not strictly_increasing(ids) and len(set(ids)) != len(ids)) or (
+            seen is not None and not seen.keys().isdisjoint(ids)
+        )
         joined = "" if plain else "\n" + "\n".join(ids)
         formula = any(f"\n{mark}" in joined for mark in FORMULA_MARKS)
         odd = not plain and ("" in ids or "\n#" in joined or formula or not "".join(ids).isprintable())
