@@ -199,10 +199,14 @@ def _noise_reasons(noise_estimate: Any, noise_check: Any) -> list[Reason]:
             if not ok:
                 # a stated fallback, not a fault: a group the others' noise hides in these data
                 # (the legs under the seed paper's pose noise in 1 of 8 15-pose campaigns)
+                why = (
+                    f"redundancy {r:.2g} < {MIN_REDUNDANCY:g}"
+                    if r < MIN_REDUNDANCY
+                    else f"it kept falling towards 0, redundancy {r:.2g}: the other groups' noise hides it"
+                )
                 text = (
-                    f"the {g} noise is not determined by these data (redundancy {r:.2g} < "
-                    f"{MIN_REDUNDANCY:g}): held at σ {s:.3g}, where the estimation left it (likely "
-                    "low; give --noise if it is known)"
+                    f"the {g} noise is not determined by these data ({why}): held at σ {s:.3g}, where "
+                    "the estimation left it (likely low; give --noise if it is known)"
                 )
                 out.append(Reason("noise-not-estimated", "info", text))
     return out

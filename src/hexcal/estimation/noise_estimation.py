@@ -19,7 +19,11 @@ until the variances no longer change. At convergence ``Ω_g = r_g`` for every gr
 reduced chi-square of every group is 1) and ``var(σ̂_g²) ≈ 2 σ_g⁴ / r_g`` (Gaussian
 noise), so ``se(σ̂_g) ≈ σ_g / sqrt(2 r_g)``. A group whose variance falls to its floor
 (:data:`NOISE_FLOORS`) is held there; a group with too little redundancy
-(:data:`MIN_REDUNDANCY`) keeps its start value and is reported as not estimated.
+(:data:`MIN_REDUNDANCY`) keeps its start value and is reported as not estimated. A group that
+the others' noise hides (position noise of 2 µm under leg noise of 20 µm) drifts towards zero by a
+few per cent a step while its redundancy shrinks and the parameters no longer move: after
+:data:`DRIFT_STEPS` such steps the iteration stops and the group is reported as not determined
+(held at the value reached, an upper estimate).
 
 The same ``Ω_g`` and ``r_g`` under a *given* noise model test it
 (:func:`hexcal.estimation.noise_check.check_noise`).
@@ -48,6 +52,13 @@ NOISE_FLOORS = {"leg": 1e-5, "position": 1e-5, "orientation": 1e-8}
 
 #: A group with less redundancy than this keeps its start value (not estimated).
 MIN_REDUNDANCY = 2.0
+
+#: Steps in a row that a group's σ falls, with the parameters settled, before the group is taken
+#: as one the data do not determine (drifting towards zero) and the iteration stops.
+DRIFT_STEPS = 5
+#: ... and only while its redundancy (its degrees of freedom) is below this: a group the data do
+#: see converges, however slowly.
+DRIFT_REDUNDANCY = 20.0
 
 #: Units of each group's σ, for reports.
 NOISE_UNITS = {"leg": "mm", "position": "mm", "orientation": "rad", "instrument": ""}
@@ -375,6 +386,8 @@ def estimate_noise(
     x = _solver_variables(problem, fit_ml(problem, _session_noises(keys, sigmas, n_sessions), **options))
     poses = None
     converged, it = False, 0
+    falling = np.zeros(len(keys), dtype=int)  # consecutive steps each σ fell
+    drifting = np.zeros(len(keys), dtype=bool)
     while it < max_iter:
         it += 1
         inner = Projection(problem, _session_noises(keys, sigmas, n_sessions))
@@ -406,19 +419,31 @@ def estimate_noise(
         new = np.where(estimated, np.maximum(sigmas * _helmert_ratio(stats, estimated), floors), sigmas)
         if not np.all(np.isfinite(new)):
             break  # the iteration diverges (a gross error): keep the last finite values
-        change = float(np.max(np.abs(new / sigmas - 1)))
+        ratios = new / sigmas
+        change = float(np.max(np.abs(ratios - 1)))
+        falling = np.where(ratios < 1 - rtol, falling + 1, 0)
         sigmas = new
         # the parameters need only be near the fit of these variances (a µm, in solver units):
         # the final fit below refines them; a group with hardly any redundancy converges
         # slowly (a factor 4 per step on real data) and would hit max_iter at 1e-6
-        if change < rtol and float(np.max(np.abs(step), initial=0.0)) < 1e-3:
+        settled = float(np.max(np.abs(step), initial=0.0)) < 1e-3
+        if change < rtol and settled:
+            converged = True
+            break
+        # a group the other groups' noise hides drifts towards zero by a few per cent a step
+        # (the variance components' slow approach to the boundary) while the parameters no
+        # longer move: stop, and report it as not determined by the data (at most this σ)
+        moving = np.abs(ratios - 1) >= rtol
+        hidden = stats.redundancy[moving] < DRIFT_REDUNDANCY
+        if settled and it >= DRIFT_STEPS and np.all(falling[moving] >= DRIFT_STEPS) and np.all(hidden):
+            drifting = moving
             converged = True
             break
     noises = _session_noises(keys, sigmas, n_sessions)
     result = fit_ml(problem, noises, **options)
     stats = group_statistics(problem, noises, result)
     red = stats.redundancy
-    estimated = red >= MIN_REDUNDANCY
+    estimated = (red >= MIN_REDUNDANCY) & ~drifting
     stderr = np.full(len(keys), np.nan)
     if stats.helmert is not None and estimated.any():
         # var(α̂) = 2 M⁻¹ for the variance ratios α (Gaussian noise); σ = sqrt(α) σ₀
