@@ -19,11 +19,8 @@ until the variances no longer change. At convergence ``Ω_g = r_g`` for every gr
 reduced chi-square of every group is 1) and ``var(σ̂_g²) ≈ 2 σ_g⁴ / r_g`` (Gaussian
 noise), so ``se(σ̂_g) ≈ σ_g / sqrt(2 r_g)``. A group whose variance falls to its floor
 (:data:`NOISE_FLOORS`) is held there; a group with too little redundancy
-(:data:`MIN_REDUNDANCY`) keeps its start value and is reported as not estimated. A group that
-the others' noise hides (position noise of 2 µm under leg noise of 20 µm) drifts towards zero by a
-few per cent a step while its redundancy shrinks and the parameters no longer move: after
-:data:`DRIFT_STEPS` such steps the iteration stops and the group is reported as not determined
-(held at the value reached, an upper estimate).
+(:data:`MIN_REDUNDANCY`) keeps its start value and is reported as not estimated, and so is one
+the others' noise hides, which drifts towards zero while the parameters stand (:data:`DRIFT_STEPS`).
 
 The same ``Ω_g`` and ``r_g`` under a *given* noise model test it
 (:func:`hexcal.estimation.noise_check.check_noise`).
@@ -53,12 +50,9 @@ NOISE_FLOORS = {"leg": 1e-5, "position": 1e-5, "orientation": 1e-8}
 #: A group with less redundancy than this keeps its start value (not estimated).
 MIN_REDUNDANCY = 2.0
 
-#: Steps in a row that a group's σ falls, with the parameters settled, before the group is taken
-#: as one the data do not determine (drifting towards zero) and the iteration stops.
-DRIFT_STEPS = 5
-#: ... and only while its redundancy (its degrees of freedom) is below this: a group the data do
-#: see converges, however slowly.
-DRIFT_REDUNDANCY = 20.0
+#: Steps in a row a group's σ falls, parameters settled and redundancy below DRIFT_REDUNDANCY
+#: (a group the data see converges, however slowly), before it counts as not determined.
+DRIFT_STEPS, DRIFT_REDUNDANCY = 5, 20.0
 
 #: Units of each group's σ, for reports.
 NOISE_UNITS = {"leg": "mm", "position": "mm", "orientation": "rad", "instrument": ""}
@@ -430,9 +424,8 @@ def estimate_noise(
         if change < rtol and settled:
             converged = True
             break
-        # a group the other groups' noise hides drifts towards zero by a few per cent a step
-        # (the variance components' slow approach to the boundary) while the parameters no
-        # longer move: stop, and report it as not determined by the data (at most this σ)
+        # a hidden group drifts towards zero by a few per cent a step (the slow approach to the
+        # boundary) while the parameters stand: stop, report it as not determined (at most this σ)
         moving = np.abs(ratios - 1) >= rtol
         hidden = stats.redundancy[moving] < DRIFT_REDUNDANCY
         if settled and it >= DRIFT_STEPS and np.all(falling[moving] >= DRIFT_STEPS) and np.all(hidden):
