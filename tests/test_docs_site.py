@@ -53,3 +53,40 @@ def test_the_tutorials_are_notebooks_the_build_executes():
         text = page.read_text(encoding="utf-8")
         assert text.startswith("---\njupytext:") and "kernelspec:" in text, page.name
         assert "```{code-cell} ipython3" in text, page.name
+
+
+def load_runner():
+    spec = importlib.util.spec_from_file_location("hexcal_run", DOCS / "_ext" / "hexcal_run.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_shell_or_python_example_runs_or_is_a_template():
+    run = load_runner()
+    pages = [p for p in DOCS.rglob("*.md") if "_build" not in p.parts]
+    unrun = {p.relative_to(DOCS).as_posix(): run.unrun_examples(p.read_text(encoding="utf-8"))
+             for p in pages}
+    assert not {page: lines for page, lines in unrun.items() if lines}
+    # the guide pages' command examples do run (the build runs {hexcal-run} blocks)
+    for name in ("commands", "ballbar", "instruments", "sessions", "observability", "planning"):
+        kinds = dict(run.classify((DOCS / f"{name}.md").read_text(encoding="utf-8"))).values()
+        assert "run" in kinds, name
+
+
+def test_the_check_finds_an_example_that_neither_runs_nor_is_marked():
+    run = load_runner()
+    page = "\n".join([
+        "```sh", "hexcal paper", "```",                                    # 1: unmarked
+        "```{code-block} bash", ":caption: x", "hexcal fk", "```",        # 4: unmarked
+        "```{code-block} sh", ":class: template", "hexcal fk", "```",     # 8: template
+        "```{hexcal-run}", ":hide:", "hexcal --version", "```",           # 12: runs
+        "```", "hexcal ik --geometry g.yaml", "```",                      # 16: bare command
+        "```python", "import hexcal", "```",                              # 19: unmarked
+        "```yaml", "units: mm", "```",                                    # data
+        "```", "id,x,y", "```",                                           # data / output
+        "````{code-cell} ipython3", "1 + 1", "````",                      # 28: runs
+    ])
+    assert run.classify(page) == [(1, "unmarked"), (4, "unmarked"), (8, "template"), (12, "run"),
+                                  (16, "unmarked"), (19, "unmarked"), (28, "run")]
+    assert run.unrun_examples(page) == [1, 4, 16, 19]
