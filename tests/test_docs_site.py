@@ -10,6 +10,8 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
+import pytest
+
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 
@@ -90,3 +92,43 @@ def test_the_check_finds_an_example_that_neither_runs_nor_is_marked():
     assert run.classify(page) == [(1, "unmarked"), (4, "unmarked"), (8, "template"), (12, "run"),
                                   (16, "unmarked"), (19, "unmarked"), (28, "run")]
     assert run.unrun_examples(page) == [1, 4, 16, 19]
+
+
+def _build(tmp_path, page: str) -> tuple[int, str, str]:
+    """Build one page with the runner (text builder, warnings as errors): exit, warnings, text."""
+    pytest.importorskip("myst_parser")
+    from sphinx.cmd.build import build_main
+
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "conf.py").write_text(
+        f"import sys\nsys.path.insert(0, {str(DOCS / '_ext')!r})\n"
+        "extensions = ['myst_parser', 'hexcal_run']\n", encoding="utf-8")
+    (src / "index.md").write_text(page, encoding="utf-8")
+    warnings = tmp_path / "warnings.txt"
+    code = build_main(["-q", "-E", "-W", "--keep-going", "-b", "text", "-w", str(warnings),
+                       str(src), str(tmp_path / "out")])
+    out = tmp_path / "out" / "index.txt"
+    return code, warnings.read_text(encoding="utf-8"), out.read_text(encoding="utf-8") if out.exists() else ""
+
+
+def test_a_run_block_shows_its_output_and_later_blocks_see_its_files(tmp_path):
+    page = "\n".join(["# t", "", "```{hexcal-run}", ":hide:", "echo 41 > n.txt", "```", "",
+                      "```{hexcal-run}", "---", "expect: |", "  it is 42", "---",
+                      'echo "it is $(( $(cat n.txt) + 1 ))"', "hexcal --version", "```", ""])
+    code, warnings, text = _build(tmp_path, page)
+    assert code == 0, warnings
+    assert "it is 42" in text and "hexcal " in text and "41 > n.txt" not in text
+
+
+@pytest.mark.parametrize("script, message", [
+    ("hexcal fk --geometry nowhere.yaml --legs none.csv --out x.csv", "the example failed (exit 2)"),
+    ("echo 0.061 mm", "does not contain '0.063 mm'"),
+])
+def test_a_failing_block_or_a_figure_the_output_lacks_fails_the_build(tmp_path, script, message):
+    page = "\n".join(["# t", "", "```{hexcal-run}", "---", "expect: 0.063 mm", "---", script, "```", "",
+                      "```sh", "hexcal paper", "```", ""])
+    code, warnings, _ = _build(tmp_path, page)
+    assert code != 0
+    assert message in warnings
+    assert "index.md:10: WARNING: a shell or Python example that does not run" in warnings
