@@ -122,7 +122,7 @@ def test_a_run_block_shows_its_output_and_later_blocks_see_its_files(tmp_path):
 
 
 @pytest.mark.parametrize("script, message", [
-    ("hexcal fk --geometry nowhere.yaml --legs none.csv --out x.csv", "the example failed (exit 2)"),
+    ("hexcal fk --geometry nowhere.yaml --legs none.csv --out x.csv", "the example failed (exit 1)"),
     ("echo 0.061 mm", "does not contain '0.063 mm'"),
 ])
 def test_a_failing_block_or_a_figure_the_output_lacks_fails_the_build(tmp_path, script, message):
