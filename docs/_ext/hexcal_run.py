@@ -17,7 +17,8 @@ the output is a warning, and ``-W`` fails the build. Options (MyST's ``:key: val
     show at most N lines of output (default 40), then say how many more;
 ``:expect: TEXT``
     each line of TEXT must occur in the output (spaces normalised): the figures the page's
-    prose states are checked against the run.
+    prose states are checked against the run. Several lines need MyST's YAML option block
+    (``---`` / ``expect: |`` / the lines indented / ``---``).
 
 A shell or Python example that does not run is a template for the user's own files and says
 so: a ``{code-block}`` with ``:class: template`` (and a caption naming it a template).
