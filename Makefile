@@ -30,9 +30,10 @@ test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q -m slow
 
 # the documentation site in docs/_build/html: every tutorial executed, any warning, broken
-# reference or failing cell fails the build (docs/conf.py); -E: read (and run) everything afresh
+# reference or failing cell fails the build (docs/conf.py); -E: read (and run) everything afresh;
+# -j auto: pages read (and their examples run) in parallel, 2m10s instead of 3m08s on 2 cores
 docs: $(DOCS_STAMP)
-	PATH="$(CURDIR)/$(BIN):$$PATH" $(BIN)/python -m sphinx -E -b html -n -W --keep-going docs docs/_build/html
+	PATH="$(CURDIR)/$(BIN):$$PATH" $(BIN)/python -m sphinx -E -j auto -b html -n -W --keep-going docs docs/_build/html
 
 # a built wheel installed into a fresh venv in /tmp and run outside the source tree
 wheel-test: | $(BIN)/python

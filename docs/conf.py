@@ -4,7 +4,8 @@ The generator is Sphinx with MyST-NB: pages are Markdown (MyST), tutorials are M
 (``docs/tutorials/*.md``) that the build executes, the API reference is autodoc of every
 package's public names, with napoleon reading the numpydoc docstrings. The build runs with
 ``-W --keep-going`` and ``nitpicky``: a warning, a broken cross-reference or a failing cell
-fails it.
+fails it. The shell examples of the guide pages are ``{hexcal-run}`` blocks that the build
+runs (``docs/_ext/hexcal_run.py``); an example that does not run is marked as a template.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ extensions = [
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
     "hexcal_docs",
+    "hexcal_run",
 ]
 
 # every docs/*.md page is a page of the site (new pages join the user guide by themselves,

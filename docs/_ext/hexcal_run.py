@@ -1,0 +1,209 @@
+"""Shell examples that run during the docs build, and the check that no example escapes.
+
+``{hexcal-run}`` is a fenced directive whose body is a bash script. The build runs it with
+``bash -e -o pipefail`` in a scratch folder of its page (one folder per page, made afresh, so a
+later block sees the files of an earlier one), with the build's own ``hexcal`` first on
+``PATH`` and ``$HEXCAL_JUGGLEBOT`` naming the test data's real sessions. The page shows the
+script, then what it printed. A non-zero exit, a time-out or an expected text missing from
+the output is a warning, and ``-W`` fails the build. Options (MyST's ``:key: value`` lines):
+
+``:hide:``
+    run, show nothing (a preamble that makes the files the next blocks need);
+``:output: none``
+    show the script only;
+``:show: REGEX``
+    show only the output lines that match (a gap becomes ``...``);
+``:max-lines: N``
+    show at most N lines of output (default 40), then say how many more;
+``:expect: TEXT``
+    each line of TEXT must occur in the output (spaces normalised): the figures the page's
+    prose states are checked against the run. Several lines need MyST's YAML option block
+    (``---`` / ``expect: |`` / the lines indented / ``---``).
+
+A shell or Python example that does not run is a template for the user's own files and says
+so: a ``{code-block}`` with ``:class: template`` (and a caption naming it a template).
+:func:`unrun_examples` finds any other (a plain ````` ```sh ````` block, a bare block that
+starts with a ``hexcal`` command or a Python import); the build warns on each, and
+``tests/test_docs_site.py`` checks every page with it.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any, ClassVar
+
+from docutils import nodes
+from docutils.parsers.rst import directives
+from sphinx.util import logging
+from sphinx.util.docutils import SphinxDirective
+
+LOGGER = logging.getLogger(__name__)
+
+#: Languages of examples that must run or be marked as templates.
+SHELL = {"sh", "bash", "console", "shell", "shell-session", "zsh", "sh-session"}
+PYTHON = {"python", "py", "python3", "ipython", "ipython3", "pycon"}
+#: Directives whose body the build runs.
+RUN = {"{hexcal-run}", "{code-cell}"}
+#: Directives that show code.
+CODE = {"{code-block}", "{code}", "{sourcecode}"}
+
+_FENCE = re.compile(r"^(\s*)(`{3,}|~{3,}|:{3,})\s*(\S*)\s*(\S*)")
+_COMMAND = re.compile(r"^\s*(\$ |hexcal |python3? -|pip |make |import |from \S+ import |>>> )")
+
+#: Seconds one block may run.
+TIMEOUT = 300
+
+
+def _blocks(text: str) -> list[tuple[int, str, str, list[str]]]:
+    """``(line, directive or language, language, body lines)`` of every top-level fence."""
+    lines = text.splitlines()
+    out = []
+    k = 0
+    while k < len(lines):
+        m = _FENCE.match(lines[k])
+        if not m:
+            k += 1
+            continue
+        fence, first, second = m.group(2), m.group(3), m.group(4)
+        closing = re.compile(rf"^\s*{re.escape(fence[0])}{{{len(fence)},}}\s*$")
+        end = k + 1
+        while end < len(lines) and not closing.match(lines[end]):
+            end += 1
+        out.append((k + 1, first, second, lines[k + 1 : end]))
+        k = end + 1
+    return out
+
+
+def _options(body: list[str]) -> dict[str, str]:
+    """A directive's ``:key: value`` lines (MyST's short option form) at the top of its body."""
+    opts = {}
+    for line in body:
+        m = re.match(r"^:([\w-]+):\s*(.*)$", line.strip())
+        if not m:
+            break
+        opts[m.group(1)] = m.group(2)
+    return opts
+
+
+def classify(text: str) -> list[tuple[int, str]]:
+    """``(line, kind)`` of every example of a page: ``run``, ``template`` or ``unmarked``.
+
+    Data blocks (YAML, CSV, tables, printed output) are no examples and are not listed.
+    """
+    kinds = []
+    for line, first, second, body in _blocks(text):
+        if first in RUN:
+            kinds.append((line, "run"))
+        elif first in CODE:
+            if second.lower() in SHELL | PYTHON:
+                classes = _options(body).get("class", "").split()
+                kinds.append((line, "template" if "template" in classes else "unmarked"))
+        elif first.startswith("{"):
+            continue  # another directive (toctree, eval-rst, a note)
+        elif first.lower() in SHELL | PYTHON:
+            kinds.append((line, "unmarked"))
+        elif not first and body and _COMMAND.match(next((b for b in body if b.strip()), "")):
+            kinds.append((line, "unmarked"))
+    return kinds
+
+
+def unrun_examples(text: str) -> list[int]:
+    """Lines of the shell or Python examples of a page that neither run nor are templates."""
+    return [line for line, kind in classify(text) if kind == "unmarked"]
+
+
+def _check_page(app: Any, docname: str, source: list[str]) -> None:
+    for line in unrun_examples(source[0]):
+        LOGGER.warning(
+            "a shell or Python example that does not run: make it a {hexcal-run} block or a "
+            "{code-block} with :class: template",
+            location=(docname, line), type="hexcal", subtype="example",
+        )
+
+
+def _scratch(env: Any) -> Path:
+    """The page's scratch folder (made at its first block, kept for its later ones)."""
+    if "hexcal_run_dir" not in env.temp_data:
+        prefix = f"hexcal-docs-{env.docname.replace('/', '-')}-"
+        env.temp_data["hexcal_run_dir"] = tempfile.mkdtemp(prefix=prefix)
+    return Path(env.temp_data["hexcal_run_dir"])
+
+
+def _environment(srcdir: Path) -> dict[str, str]:
+    env = dict(os.environ)
+    env["PATH"] = os.pathsep.join([str(Path(sys.executable).parent), env.get("PATH", "")])
+    env.setdefault("HEXCAL_JUGGLEBOT", str(srcdir.parent / "tests" / "data" / "jugglebot"))
+    env["MPLBACKEND"] = "Agg"
+    env["COLUMNS"] = "100"
+    return env
+
+
+def _shown(output: str, show: str | None, max_lines: int) -> str:
+    lines = output.rstrip("\n").splitlines()
+    if show:
+        pattern = re.compile(show)
+        kept: list[str] = []
+        for line in lines:
+            if pattern.search(line):
+                kept.append(line)
+            elif kept and kept[-1] != "...":
+                kept.append("...")
+        lines = kept[:-1] if kept and kept[-1] == "..." else kept
+    if len(lines) > max_lines:
+        lines = [*lines[:max_lines], f"... ({len(lines) - max_lines} more lines)"]
+    return "\n".join(lines)
+
+
+def _squash(text: str) -> str:
+    return " ".join(text.split())
+
+
+class HexcalRun(SphinxDirective):
+    """The ``{hexcal-run}`` directive (see the module docstring)."""
+
+    has_content = True
+    option_spec: ClassVar[dict[str, Any]] = {
+        "hide": directives.flag,
+        "output": directives.unchanged,
+        "show": directives.unchanged,
+        "max-lines": directives.nonnegative_int,
+        "expect": directives.unchanged,
+    }
+
+    def run(self) -> list[nodes.Node]:
+        script = "\n".join(self.content)
+        where = (self.env.docname, self.lineno)
+        try:
+            done = subprocess.run(
+                ["bash", "-e", "-o", "pipefail", "-c", script], cwd=_scratch(self.env),
+                env=_environment(Path(self.env.srcdir)), stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT, text=True, timeout=TIMEOUT, check=False,
+            )
+            output, code = done.stdout, done.returncode
+        except subprocess.TimeoutExpired as exc:
+            output, code = str(exc.stdout or ""), f"no exit within {TIMEOUT} s"
+        if code != 0:
+            LOGGER.warning("the example failed (exit %s):\n%s", code, output[-3000:],
+                           location=where, type="hexcal", subtype="run")
+        for wanted in filter(None, (w.strip() for w in self.options.get("expect", "").splitlines())):
+            if _squash(wanted) not in _squash(output):
+                LOGGER.warning("the example's output does not contain %r (the page states it)", wanted,
+                               location=where, type="hexcal", subtype="expect")
+        if "hide" in self.options:
+            return []
+        shown = [nodes.literal_block(script, script, language="bash", classes=["hexcal-run"])]
+        text = _shown(output, self.options.get("show"), self.options.get("max-lines", 40))
+        if self.options.get("output") != "none" and text:
+            shown.append(nodes.literal_block(text, text, language="text", classes=["hexcal-output"]))
+        return shown
+
+
+def setup(app: Any) -> dict[str, Any]:
+    app.add_directive("hexcal-run", HexcalRun)
+    app.connect("source-read", _check_page)
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
