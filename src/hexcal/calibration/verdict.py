@@ -315,10 +315,15 @@ def _outlier_reasons(result: Any, problem: Any, noise: Any) -> list[Reason]:
         return []
     try:
         scores = screen_poses(result.start, problem=problem, noise=noise, studentized=True)
+        # a gross error drags the least-squares-like studentized fit towards itself: the plain
+        # screen's score (soft L1, bounded influence) decides a fail too; its false alarms of
+        # small campaigns lie near the warning threshold, far below a gross error's
+        plain = screen_poses(result.start, problem=problem, noise=noise)
     except (HexcalError, ValueError, np.linalg.LinAlgError):  # the screening is advisory
         return []
     out = []
     gross = SCREEN_THRESHOLD * GROSS_FACTOR
+    scores = np.where(plain > gross, np.maximum(scores, plain), scores)
     ids = problem.ids
     for sev, lo, hi in (("fail", gross, np.inf), ("warn", SCREEN_THRESHOLD, gross)):
         idx = np.flatnonzero((scores > lo) & (scores <= hi))
