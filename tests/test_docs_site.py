@@ -58,7 +58,8 @@ def test_the_tutorials_are_notebooks_the_build_executes():
 
 
 def load_runner():
-    spec = importlib.util.spec_from_file_location("hexcal_run", DOCS / "_ext" / "hexcal_run.py")
+    """The examples check (plain text: it needs none of the docs dependencies)."""
+    spec = importlib.util.spec_from_file_location("hexcal_examples", DOCS / "_ext" / "hexcal_examples.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
