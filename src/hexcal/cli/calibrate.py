@@ -80,8 +80,6 @@ def _setup_outputs(args: argparse.Namespace) -> list[str]:
 
     if not args.setup_out:
         return []
-    if not args.setup:
-        raise CommandError("--setup-out: the data have no setup (give --setup) to calibrate")
     outputs = active_outputs()
     if len(args.data) == 1:
         paths = [args.setup_out]
@@ -116,6 +114,8 @@ def cmd_identify(args: argparse.Namespace) -> None:
     setup_paths = _setup_outputs(args)
     nominal = load_geometry(args.geometry, args.euler)
     sessions = read_sessions(args, nominal)
+    if setup_paths and not any(np.any(s.instrument.parameters().vary) for s in sessions):
+        raise CommandError("--setup-out: the data have no setup (give --setup) to calibrate")
     noise = identify_noise(args, sessions)
     nominal, fit, choice = _leg_model(args, nominal, sessions, noise)
     # limits relative to the machine: the library's are 1 mm (1e-3 for gains) per unit of scale
