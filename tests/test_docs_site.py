@@ -15,11 +15,16 @@ import pytest
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 
-def load_extension():
-    spec = importlib.util.spec_from_file_location("hexcal_docs", DOCS / "_ext" / "hexcal_docs.py")
+def _load_ext(name: str):
+    """A module of docs/_ext, loaded from its file (docs/_ext is not a package)."""
+    spec = importlib.util.spec_from_file_location(name, DOCS / "_ext" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def load_extension():
+    return _load_ext("hexcal_docs")
 
 
 def test_every_page_of_docs_is_in_a_list_of_the_start_page():
@@ -59,10 +64,7 @@ def test_the_tutorials_are_notebooks_the_build_executes():
 
 def load_runner():
     """The examples check (plain text: it needs none of the docs dependencies)."""
-    spec = importlib.util.spec_from_file_location("hexcal_examples", DOCS / "_ext" / "hexcal_examples.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return _load_ext("hexcal_examples")
 
 
 def test_every_shell_or_python_example_runs_or_is_a_template():
