@@ -206,18 +206,17 @@ def absolute_readings(start: Geometry, sessions: Sequence[Any]) -> str | None:
         if readings is None or not np.size(readings):
             continue
         given = leg_lengths(start, readings)
+        where = f"{session.label}: " if session.label else ""
         short = np.flatnonzero(np.any(given <= 0, axis=1))
         if short.size:
             ids = session.instrument.ids(session.data)
             row, leg = int(short[0]), int(np.argmin(given[short[0]]))
-            where = f"{session.label}: " if session.label else ""
             more = f" (and {short.size - 1} more)" if short.size > 1 else ""
             return (
                 f"{where}pose {ids[row]}{more}: dl{leg + 1} = {readings[row, leg]:.6g} makes leg {leg + 1} "
                 f"{given[row, leg]:.6g} mm long (l0 + g dl), no real leg; a sign or unit slip in that column?"
             )
         if np.all((readings >= low) & (readings <= high)) and np.all(given > high):
-            where = f"{session.label}: " if session.label else ""
             return (
                 f"{where}the leg readings dl ({np.min(readings):.4g} to {np.max(readings):.4g}) look like "
                 f"absolute strut lengths (a controller's joint positions): the legs are {low:.4g} to "

@@ -65,8 +65,6 @@ def screen_poses(
         width = 6
 
         def scale(x: NDArray[np.float64], r: NDArray[np.float64]) -> float:
-            if studentized:
-                r = r / _spread(jac(x))
             return 1.4826 * float(np.median(np.abs(r)))
 
     else:
@@ -84,15 +82,16 @@ def screen_poses(
 
     x = np.zeros(problem.n_free)
     f_scale = 1.0
+    if rounds < 1:
+        raise ValueError(f"rounds must be >= 1, got {rounds}")
     for _ in range(rounds):
         loss_scale = f_scale * (_TUNING if studentized else 1.0)
         sol = least_squares(fun, x, jac=jac, method="trf", loss="soft_l1", f_scale=loss_scale, x_scale=1.0)
         x = sol.x
-        f_scale = max(scale(x, sol.fun), 1e-9)
-    r = fun(x)
+        # the residuals at the solution, studentized once per round (an SVD of the Jacobian)
+        r = sol.fun / _spread(jac(x)) if studentized and width is not None else sol.fun
+        f_scale = max(scale(x, r), 1e-9)
     if width is not None:
-        if studentized:
-            r = r / _spread(jac(x))
         return np.max(np.abs(r.reshape(len(problem), width)), axis=1) / f_scale
     blocks = inner.blocks(x)
     return np.concatenate([np.max(np.abs(b), axis=1) for b in blocks]) / f_scale
