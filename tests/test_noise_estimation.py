@@ -62,10 +62,12 @@ def test_estimate_auto_records_source_uncertainty_and_json():
     assert set(out["bound"]) == set(result.names)
 
 
-def test_noise_none_means_auto_only_when_asked():
+def test_noise_is_learned_by_default_wherever_something_uses_it():
+    # one judgement (issue 28): estimate learns the noise as hexcal identify does; a fit that
+    # uses no noise (least squares, no bound, no verdict) does not learn it for nothing
     d = data(NoiseModel(), m=30, seed=6)
-    assert estimate(NOMINAL, d, verdict=False).noise_source == "given"
-    assert estimate(NOMINAL, d, default_noise="auto", verdict=False).noise_source == "estimated"
+    assert estimate(NOMINAL, d, verdict=False).noise_source == "estimated"
+    assert estimate(NOMINAL, d, "length", with_bound=False).noise_source == "given"
     with pytest.raises(UsageError):
         estimate(NOMINAL, d, noise="guess")
 
@@ -94,7 +96,13 @@ def test_groups_without_noise_come_out_small_and_exact_data_floor_everything():
     noise = NoiseModel(leg=0.01, position=0.0, orientation=0.0, distribution="normal")
     est, _ = estimate_noise(Problem(NOMINAL, data(noise, m=40, seed=8)))
     assert est.sigmas[0] == pytest.approx(0.01, rel=0.2)
-    assert est.sigmas[1] < 0.005 and est.sigmas[2] < 1e-4
+    # each pose group comes out small, or is not determined (the legs' noise hides it) and is
+    # held at its fallback, here the start (the seed paper's σ), not where the iteration stopped
+    start = NoiseModel().sigmas
+    for k, limit in ((1, 0.005), (2, 1e-4)):
+        assert (est.estimated[k] and est.sigmas[k] < limit) or (
+            not est.estimated[k] and est.sigmas[k] == pytest.approx(start[k])
+        )
     # noise-free data: every group falls to its floor instead of making the fit singular
     est, fit = estimate_noise(Problem(NOMINAL, data(NoiseModel(0, 0, 0), m=20, seed=8)))
     assert est.floored.all()

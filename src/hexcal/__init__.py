@@ -45,6 +45,8 @@ Public names
   ``read_target_measurements``, ``write_target_measurements``, ``read_tool_measurements``:
   measurement sessions and their files (docs/formats.md "Sessions").
 - ``read_poses``, ``write_poses``, ``read_legs``, ``write_legs``: pose and leg files.
+- ``calibrate``, ``Calibration``: the calibration workflow (noise, leg model, outliers, the
+  verdict, splits, predicted accuracy) and its result, reports and file.
 - ``estimate``, ``ESTIMATORS``, ``IdentificationResult``, ``Problem``, ``identify_robust``,
   ``Verdict``: identification from one or several sessions, with its verdict.
 - ``validate``, ``ValidationResult``: prediction errors on held-out data.
@@ -127,6 +129,8 @@ _PUBLIC = {
     "IdentificationResult": "estimation",
     "Problem": "estimation",
     "identify_robust": "estimation",
+    "calibrate": "workflow",
+    "Calibration": "workflow",
     "estimate": "calibration",
     "validate": "calibration",
     "ValidationResult": "calibration",

@@ -43,6 +43,10 @@ class IdentificationError(HexcalError, ValueError):
     """The data cannot determine the parameters, or the solver failed."""
 
 
+class CalibrationFailed(HexcalError):
+    """A calibration whose verdict is ``fail`` was to be written: nothing is written."""
+
+
 class ValidationError(HexcalError, ValueError):
     """The model cannot be evaluated at some poses (forward kinematics fails)."""
 

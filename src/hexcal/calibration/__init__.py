@@ -9,8 +9,15 @@ Public names
   quantities) from one or several sessions; ``noise=AUTO`` learns the noise from the data.
 - ``validate``, ``ValidationResult``: prediction errors of a calibration on held-out data.
 - ``Verdict``, ``Reason``, ``SEVERITIES``, ``assess``, ``FAIL_FACTOR``, ``MAX_CHANGE``,
-  ``SIGMA_LIMITS``: the verdict (pass, warn or fail) and its reasons, as estimate
-  attaches it to its result.
+  ``SIGMA_LIMIT``, ``SIGMA_LIMITS``: the verdict (pass, warn or fail) and its reasons, as
+  estimate attaches it to its result; its limits and defaults are in one module,
+  hexcal.calibration.limits.
+- ``group_references``, ``reference_noises``, ``noise_findings``: the learned noise held
+  against what the instruments can do (model error), and the value a group the data cannot
+  determine is held at.
+- ``sequence_findings``, ``SequenceFinding``: steps (a bumped instrument) and drifts (warming
+  legs) in each session's acquisition order; ``split_sessions``: a session split where its
+  instrument moved.
 - ``diagnose``, ``Quality``: the likely cause of a bad fit (degrees, gains, Euler sequence...).
 - ``predicted_pose_accuracy``, ``predicted_pose_errors``, ``pose_error_map``: the predicted
   pose accuracy after calibration.
@@ -36,9 +43,17 @@ _NAMES = {
     "pose_tests": "iso_validation",
     "repeated_visits": "iso_poses",
     "EULER_SEQUENCES": "diagnosis",
-    "FAIL_FACTOR": "verdict",
-    "GROSS_FACTOR": "verdict",
-    "MAX_CHANGE": "verdict",
+    "FAIL_FACTOR": "limits",
+    "GROSS_FACTOR": "limits",
+    "MAX_CHANGE": "limits",
+    "SIGMA_LIMIT": "limits",
+    "SequenceFinding": "sequence",
+    "group_references": "noise_judgement",
+    "noise_findings": "noise_judgement",
+    "reference_noises": "noise_judgement",
+    "sequence_findings": "sequence",
+    "split_sessions": "splitting",
+    "step_splits": "splitting",
     "Quality": "diagnosis",
     "Reason": "reasons",
     "SEVERITIES": "reasons",
@@ -68,11 +83,13 @@ __all__ = [
     "FAIL_FACTOR",
     "MAX_CHANGE",
     "SEVERITIES",
+    "SIGMA_LIMIT",
     "SIGMA_LIMITS",
     "CircularTest",
     "PoseStatistics",
     "Quality",
     "Reason",
+    "SequenceFinding",
     "ValidationResult",
     "Verdict",
     "assess",
@@ -80,12 +97,17 @@ __all__ = [
     "circular_tests",
     "diagnose",
     "estimate",
+    "group_references",
+    "noise_findings",
     "pose_error_map",
     "pose_statistics",
     "pose_tests",
     "predicted_pose_accuracy",
     "predicted_pose_errors",
+    "reference_noises",
     "repeated_visits",
+    "sequence_findings",
+    "split_sessions",
     "validate",
 ]
 

@@ -36,7 +36,8 @@ from numpy.typing import ArrayLike
 
 from hexcal.calibration import diagnosis
 from hexcal.calibration.diagnosis import Quality
-from hexcal.calibration.verdict import FAIL_FACTOR, MAX_CHANGE, assess, undetermined
+from hexcal.calibration.noise_judgement import reference_noises
+from hexcal.calibration.verdict import FAIL_FACTOR, MAX_CHANGE, assess, limit_scale, undetermined
 from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
@@ -51,6 +52,7 @@ from hexcal.estimation.problem import Problem, as_sessions, session_noises
 from hexcal.estimation.registry import DEFAULT_ESTIMATOR, get_estimator
 from hexcal.estimation.result import IdentificationResult
 from hexcal.estimation.robust import identify_robust, screen_poses
+from hexcal.estimation.sessions import refuse_repeated_sessions
 from hexcal.estimation.uncertainty import bound_stderr, gauge_fixed_covariance, projected_jacobian
 from hexcal.instruments.base import MeasurementModel, Session
 
@@ -75,9 +77,9 @@ def register_sessions(start: Geometry, sessions: Sequence[Session]) -> tuple[lis
     return out, tuple(records)
 
 
-def _noise(noise: Any, default_noise: str) -> Any:
+def _noise(noise: Any) -> Any:
     if noise is None:
-        return AUTO if default_noise == AUTO else NoiseModel()
+        return AUTO
     if isinstance(noise, str) and noise != AUTO:
         raise UsageError(f"noise must be a NoiseModel or {AUTO!r}, got {noise!r}")
     return noise
@@ -98,10 +100,9 @@ def estimate(
     robust: bool = False,
     diagnose: bool | None = None,
     alpha: float = DEFAULT_ALPHA,
-    default_noise: str = "paper",
     verdict: bool | None = None,
-    sigma_limit: float = 1.0,
-    max_change: float = MAX_CHANGE,
+    sigma_limit: float | None = None,
+    max_change: float | None = None,
     **options: Any,
 ) -> IdentificationResult:
     """Identify the machine from measurement sessions with any registered estimator.
@@ -121,9 +122,10 @@ def estimate(
         the instruments' free quantities vary too.
     noise : NoiseModel, one per session, or "auto", optional
         The measurement noise: used by the noise-weighted estimators and for the bound and
-        the outlier check of every estimator. ``"auto"`` learns it from the data, per session
-        and group (``result.noise_source == "estimated"``). A given model is checked against
-        the data (``result.noise_check``). ``None`` means ``default_noise``.
+        the outlier check of every estimator. ``"auto"`` (the default, ``None`` too) learns it
+        from the data, per session and group (``result.noise_source == "estimated"``), held
+        against what the instruments can do (:mod:`hexcal.calibration.noise_judgement`). A
+        given model is checked against the data (``result.noise_check``).
     with_bound : bool
         Attach the Cramér–Rao bound (``result.bound``) and the noise model.
     model : MeasurementModel, optional
@@ -141,17 +143,17 @@ def estimate(
         ``with_bound``.
     alpha : float
         Family-wise false alarm rate of the outlier check.
-    default_noise : {"paper", "auto"}
-        What ``noise=None`` means: the seed paper's noise model (the library's historical
-        default) or ``"auto"`` (the command line's default).
     verdict : bool, optional
         Judge the fit (``result.verdict``, :func:`hexcal.calibration.verdict.assess`);
         default ``with_bound``.
-    sigma_limit : float
-        Scale of the limits above which a parameter combination is undetermined (1 mm for
-        lengths, 1e-3 relative for gains, 1e-3 rad for angles by default).
-    max_change : float
-        Largest plausible parameter change as a fraction of the machine's size.
+    sigma_limit : float, optional
+        The identifiability limit as a fraction of the platform radius (default
+        :data:`hexcal.calibration.verdict.SIGMA_LIMIT`): a parameter combination whose
+        predicted σ exceeds it is poorly determined, beyond 3 times it undetermined (gains:
+        1e-3 relative, instrument angles 1e-3 rad per mm of it).
+    max_change : float, optional
+        Largest plausible parameter change as a fraction of the machine's size (default
+        :data:`hexcal.calibration.verdict.MAX_CHANGE`).
     **options
         Passed to the estimator (e.g. ``xtol``, ``max_nfev``).
 
@@ -160,14 +162,21 @@ def estimate(
     IdentificationResult
     """
     given = as_sessions(measurements, model)
+    refuse_repeated_sessions(given)
     absolute = diagnosis.absolute_readings(start, given)
     if absolute is not None:
         raise InputError(absolute)
-    noise = _noise(noise, default_noise)
+    noise = _noise(noise)
     auto = isinstance(noise, str)
+    sigma_limit = limit_scale(start, sigma_limit)
+    max_change = MAX_CHANGE if max_change is None else max_change
+    if not max_change > 0:
+        raise UsageError(f"max_change must be > 0, got {max_change}")
     estimator = get_estimator(method)
     diagnose = with_bound if diagnose is None else diagnose
     verdict = with_bound if verdict is None else verdict
+    if auto and not (with_bound or verdict or diagnose or robust or estimator.uses_noise):
+        noise, auto = NoiseModel(), False  # nothing would use it: no need to learn it
     sessions, registrations = register_sessions(start, given)
     problem = Problem(start, sessions, mask=mask, parameters=parameters, fit=fit, fix=fix)
     if estimator.needs_pose and not problem.determines_pose:
@@ -187,7 +196,7 @@ def estimate(
             result, used = robust_fit.result, robust_fit.problem
         else:
             if auto:
-                noise_estimate, ml_fit = estimate_noise(problem, **options)
+                noise_estimate, ml_fit = _learn_noise(problem, options)
                 noise = noise_estimate.noises
                 result = ml_fit if method == "ml" else estimator.fit(problem, noise, **options)
             else:
@@ -292,7 +301,15 @@ def _robust_noise(problem: Problem, options: dict) -> NoiseEstimate:
     drop = np.argsort(-scores)[:limit]
     keep = np.ones(len(scores), dtype=bool)
     keep[drop[scores[drop] > SCREEN_THRESHOLD]] = False
-    return estimate_noise(problem.subset(keep), **options)[0]
+    return _learn_noise(problem.subset(keep), options)[0]
+
+
+def _learn_noise(problem: Problem, options: dict) -> tuple[NoiseEstimate, IdentificationResult]:
+    """The noise of every session and group learned from the data, started from (and, where
+    these data cannot determine a group, held at) what its instrument declares or such
+    instruments typically do (:func:`hexcal.calibration.noise_judgement.reference_noises`)."""
+    references = reference_noises([p.instrument for p in problem.parts])
+    return estimate_noise(problem, start=references, fallback=references, **options)
 
 
 def _explain_failure(

@@ -38,11 +38,20 @@ from numpy.typing import NDArray
 
 from hexcal.calibration.accuracy import predicted_pose_accuracy
 from hexcal.calibration.accuracy_reasons import accuracy_findings
+from hexcal.calibration.limits import (
+    FAIL_FACTOR,
+    GROSS_FACTOR,
+    MAX_CHANGE,
+    SCREEN_THRESHOLD,
+    SEQUENCE_ALPHA,
+    SIGMA_LIMIT,
+)
+from hexcal.calibration.noise_judgement import noise_findings
 from hexcal.calibration.reasons import Reason, Verdict
+from hexcal.calibration.sequence import sequence_reasons
 from hexcal.calibration.stroke_structure import stroke_findings
 from hexcal.core.geometry import Geometry
-from hexcal.errors import HexcalError
-from hexcal.estimation.noise_estimation import MIN_REDUNDANCY
+from hexcal.errors import HexcalError, UsageError
 
 #: Default limits of the predicted σ of a parameter combination (per unit of the
 #: normalised combination): 1 mm for lengths, 1e-3 (relative) for gains, 1e-3 rad for an
@@ -51,19 +60,6 @@ SIGMA_LIMITS = {"length": 1.0, "gain": 1e-3, "angle": 1e-3}
 
 #: Names of instrument angles (frame and tool orientation).
 _ANGLE_SUFFIXES = (".a", ".b", ".c")
-
-#: Largest plausible change of a parameter, as a fraction of the machine's size (and of 1
-#: for gains).
-MAX_CHANGE = 0.1
-
-#: Robust σ beyond which a pose's leg residual is an outlier (``warn``) ...
-SCREEN_THRESHOLD = 8.0
-#: ... and this many times that, a gross error (``fail``).
-GROSS_FACTOR = 5.0
-
-#: A combination whose predicted σ exceeds the limit is poorly determined (``warn``); beyond
-#: this many times the limit it is not determined at all (``fail``).
-FAIL_FACTOR = 3.0
 
 
 def combination_name(vector: NDArray[np.float64], names: tuple[str, ...], top: int = 4) -> str:
@@ -115,6 +111,15 @@ def undetermined(
     sig = np.sqrt(np.maximum(vals, 0.0))
     bad = np.flatnonzero(~(sig <= 1.0))[::-1]
     return [(float(sig[k]), combination_name(vecs[:, k], names)) for k in bad]
+
+
+def limit_scale(geometry: Geometry, fraction: float | None = None) -> float:
+    """The scale of :data:`SIGMA_LIMITS` (mm per unit) of a ``fraction`` of the platform radius
+    (default :data:`SIGMA_LIMIT`)."""
+    fraction = SIGMA_LIMIT if fraction is None else fraction
+    if not fraction > 0:
+        raise UsageError(f"sigma_limit must be > 0, got {fraction}")
+    return fraction * machine_size(geometry)[1]
 
 
 def machine_size(geometry: Geometry) -> tuple[float, float]:
@@ -174,44 +179,6 @@ def _chi_square_reasons(result: Any, alpha: float) -> list[Reason]:
     ]
 
 
-def _noise_reasons(noise_estimate: Any, noise_check: Any) -> list[Reason]:
-    out = []
-    if noise_check is not None and noise_check.disagree:
-        out.append(
-            Reason(
-                "noise-model",
-                "warn",
-                f"the given noise disagrees with the data: {noise_check.describe()} "
-                "(estimate it from the data: noise auto)",
-                noise_check.to_dict(),
-            )
-        )
-    if noise_estimate is not None:
-        est = noise_estimate
-        parts = [
-            f"{g} σ {s:.3g} ± {e:.2g}" if np.isfinite(e) else f"{g} σ {s:.3g} (not estimated)"
-            for g, s, e in zip(est.groups, est.sigmas, est.stderr, strict=True)
-        ]
-        out.append(Reason("noise-estimated", "info", "noise from the data: " + ", ".join(parts)))
-        if not noise_estimate.converged:
-            out.append(Reason("noise-not-converged", "warn", "the variance components did not converge"))
-        for g, ok, s, r in zip(est.groups, est.estimated, est.sigmas, est.redundancy, strict=True):
-            if not ok:
-                # a stated fallback, not a fault: a group the others' noise hides in these data
-                # (the legs under the seed paper's pose noise in 1 of 8 15-pose campaigns)
-                why = (
-                    f"redundancy {r:.2g} < {MIN_REDUNDANCY:g}"
-                    if r < MIN_REDUNDANCY
-                    else f"it kept falling towards 0, redundancy {r:.2g}: the other groups' noise hides it"
-                )
-                text = (
-                    f"the {g} noise is not determined by these data ({why}): held at σ {s:.3g}, where "
-                    "the estimation left it (likely low; give --noise if it is known)"
-                )
-                out.append(Reason("noise-not-estimated", "info", text))
-    return out
-
-
 def assess(
     result: Any,
     problem: Any = None,
@@ -226,6 +193,8 @@ def assess(
     accuracy: bool = True,
     noise: Any = None,
     reference: NDArray[np.float64] | None = None,
+    sequence: bool = True,
+    alpha_sequence: float = SEQUENCE_ALPHA,
 ) -> Verdict:
     """The verdict of an identification (module docstring).
 
@@ -256,10 +225,16 @@ def assess(
     reference : ndarray, optional
         The values changes are measured from (the setups as given, before registration);
         default the start values.
+    sequence : bool
+        Look for steps and drifts in each session's acquisition order
+        (:mod:`hexcal.calibration.sequence`).
+    alpha_sequence : float
+        Level of that test, per session.
     """
     reasons: list[Reason] = []
     reasons += _chi_square_reasons(result, alpha) if noise_estimate is None else []
-    reasons += _noise_reasons(noise_estimate, noise_check)
+    instruments = [p.instrument for p in problem.parts] if problem is not None else []
+    reasons += noise_findings(noise_estimate, noise_check, instruments)
     names = result.names
     start_values = np.asarray(result.start_values)
     for sig, combo in undetermined(result.covariance, names, sigma_limit, start_values)[:5]:
@@ -294,8 +269,12 @@ def assess(
     if result.flagged:
         text = f"poses with implausible residuals: {', '.join(result.flagged)}"
         reasons.append(Reason("flagged", "warn", text))
+    outlying: list[int] = []
     if problem is not None and not robust:
-        reasons += _outlier_reasons(result, problem, noise)
+        found, outlying = _outlier_reasons(result, problem, noise)
+        reasons += found
+    if problem is not None and sequence:
+        reasons += sequence_reasons(problem, result, noise, outlying, alpha=alpha_sequence)
     acc = None
     if accuracy:
         acc, found = accuracy_findings(result, problem, noise, names)
@@ -308,11 +287,12 @@ def assess(
     return verdict
 
 
-def _outlier_reasons(result: Any, problem: Any, noise: Any) -> list[Reason]:
+def _outlier_reasons(result: Any, problem: Any, noise: Any) -> tuple[list[Reason], list[int]]:
+    """The outlier screen's reasons, and the observations beyond its threshold (by row)."""
     from hexcal.estimation.robust import screen_poses
 
     if len(problem) != result.n_poses:
-        return []
+        return [], []
     try:
         scores = screen_poses(result.start, problem=problem, noise=noise, studentized=True)
         # a gross error drags the least-squares-like studentized fit towards itself: the plain
@@ -320,7 +300,7 @@ def _outlier_reasons(result: Any, problem: Any, noise: Any) -> list[Reason]:
         # small campaigns lie near the warning threshold, far below a gross error's
         plain = screen_poses(result.start, problem=problem, noise=noise)
     except (HexcalError, ValueError, np.linalg.LinAlgError):  # the screening is advisory
-        return []
+        return [], []
     out = []
     gross = SCREEN_THRESHOLD * GROSS_FACTOR
     scores = np.where(plain > gross, np.maximum(scores, plain), scores)
@@ -339,7 +319,7 @@ def _outlier_reasons(result: Any, problem: Any, noise: Any) -> list[Reason]:
                     {"poses": [ids[k] for k in idx]},
                 )
             )
-    return out
+    return out, np.flatnonzero(scores > SCREEN_THRESHOLD).tolist()
 
 
 __all__ = ["Reason", "Verdict", "assess", "predicted_pose_accuracy", "undetermined"]

@@ -31,16 +31,6 @@ from hexcal.cli.common import (
 )
 from hexcal.cli.noise import noise_from_args, noise_options, parse_noise, refuse_zero_noise
 
-#: Default ``--sigma-limit``: a parameter combination whose predicted σ exceeds this
-#: fraction of the platform radius is poorly determined (``warn``), beyond three times it
-#: not determined by the data (``fail``); gains: 1e-3 (relative) per mm of the length limit.
-SIGMA_LIMIT = 0.2
-
-#: Default ``--max-change``: a change beyond this fraction of the machine's size (base radius
-#: for ``u``, platform radius for ``s``, the larger for ``l0``; of the gain for gains) is
-#: implausible.
-MAX_CHANGE = 0.25
-
 
 def identify_noise(args: argparse.Namespace, sessions: Sequence[Any] = ()) -> Any:
     """``"auto"`` (the noise learned from the data) unless ``--noise``/``--pose-covariance``
@@ -73,7 +63,9 @@ def _given(**files: Any) -> dict[str, Any]:
 
 def _setup_outputs(args: argparse.Namespace) -> list[str]:
     """The calibrated setups ``--setup-out`` names: a file for one data file, else one file per
-    session in the folder ``--setup-out`` (declared now, before any work)."""
+    session in the folder ``--setup-out`` (declared now, before any work; with ``--split`` the
+    sessions are known only after it, so ``--setup-out`` is a folder whose files are declared
+    then: :func:`_split_setup_paths`)."""
     from pathlib import Path
 
     from hexcal.io import active_outputs
@@ -81,14 +73,19 @@ def _setup_outputs(args: argparse.Namespace) -> list[str]:
     if not args.setup_out:
         return []
     outputs = active_outputs()
-    if len(args.data) == 1:
+    if len(args.data) == 1 and not args.split:
         paths = [args.setup_out]
     else:
         folder = Path(args.setup_out)
         if folder.exists() and not folder.is_dir():
-            raise CommandError(f"--setup-out {folder}: with {len(args.data)} data files this is a folder")
+            raise CommandError(
+                f"--setup-out {folder}: with {'--split' if args.split else f'{len(args.data)} data files'} "
+                "this is a folder"
+            )
         if outputs is not None:
             outputs.folder(folder)
+        if args.split:
+            return [str(folder)]
         paths = [str(folder / f"{Path(d).stem}-setup.yaml") for d in args.data]
         if len(set(paths)) < len(paths):
             raise CommandError("--setup-out: two data files have the same name; give them distinct names")
@@ -98,106 +95,102 @@ def _setup_outputs(args: argparse.Namespace) -> list[str]:
     return paths
 
 
+def _split_setup_paths(folder: str, labels: Sequence[str]) -> list[str]:
+    """One calibrated setup file per session of a split calibration, in ``folder``, named by
+    the session's label (``run.csv#2`` -> ``run-2-setup.yaml``), declared in the output set."""
+    import re
+    from pathlib import Path
+
+    from hexcal.io import active_outputs
+
+    outputs = active_outputs()
+    paths = []
+    for label in labels:
+        stem, _, part = label.partition("#")
+        name = re.sub(r"[^A-Za-z0-9._-]+", "_", Path(stem).stem + (f"-{part}" if part else ""))
+        paths.append(str(Path(folder) / f"{name}-setup.yaml"))
+        if outputs is not None:
+            outputs.add(paths[-1])
+    return paths
+
+
 def cmd_identify(args: argparse.Namespace) -> None:
     """Identify the machine from measurement sessions; write the calibrated geometry."""
     import numpy as np
 
-    from hexcal.calibration import estimate
-    from hexcal.io import active_outputs, atomic_write, save_geometry, save_setup_dict
-    from hexcal.report import identification_dict, identification_report_dict, render
+    from hexcal.io import active_outputs, atomic_write
+    from hexcal.workflow import calibrate
 
     check_outputs(args.out, args.report, args.json, args.html)
-    if not args.sigma_limit > 0:
-        raise CommandError(f"--sigma-limit must be > 0, got {args.sigma_limit}")
-    if not args.max_change > 0:
-        raise CommandError(f"--max-change must be > 0, got {args.max_change}")
     setup_paths = _setup_outputs(args)
     nominal = load_geometry(args.geometry, args.euler)
     sessions = read_sessions(args, nominal)
     if setup_paths and not any(np.any(s.instrument.parameters().vary) for s in sessions):
         raise CommandError("--setup-out: the data have no setup (give --setup) to calibrate")
-    noise = identify_noise(args, sessions)
-    nominal, fit, choice = _leg_model(args, nominal, sessions, noise)
-    # limits relative to the machine: the library's are 1 mm (1e-3 for gains) per unit of scale
-    radius = float(np.max(np.linalg.norm(nominal.platform_joints[:, :2], axis=1)))
-    result = estimate(
+    files = {"geometry": args.geometry} | {f"data {k + 1}": d for k, d in enumerate(args.data)}
+    files |= {f"setup {k + 1}": s for k, s in enumerate(args.setup or [])}
+    calibration = calibrate(
         nominal,
         sessions,
-        args.method,
-        noise=noise,
-        fit=fit,
+        method=args.method,
+        noise=identify_noise(args, sessions),
+        fit=args.fit,
         fix=args.fix or (),
+        leg_model=args.leg_model,
         robust=args.robust,
-        sigma_limit=args.sigma_limit * radius,
+        split=_split_option(args.split),
+        sigma_limit=args.sigma_limit,
         max_change=args.max_change,
+        inputs=_given(data=args.data, setup=args.setup) | inputs_record(files, args),
     )
-    report = identification_report_dict(result)
-    text = render("identification", report)
-    if result.failed and not args.force:
+    text = calibration.report()
+    if calibration.failed and not args.force:
         print(text)
         outputs = active_outputs()
         if outputs is not None:  # the report is shown though nothing is written
             outputs.show_text()
-        reasons = result.verdict.reasons
-        serious = [r.message for r in reasons if r.severity == "fail"]
-        serious += [r.message for r in reasons if r.severity == "warn"]
         raise CommandError(
-            f"verdict fail: {'; '.join(serious)}; nothing written (--force writes the geometry anyway)"
+            f"verdict fail: {calibration.failure()}; nothing written (--force writes the geometry anyway)"
         )
-    calibration = result.calibration_metadata()
-    calibration |= _given(data=args.data, setup=args.setup)
-    calibration["outliers"] = list(result.outliers)
-    if choice is not None:
-        calibration["leg_model_choice"] = choice.to_dict()
-    if result.convention:
-        calibration["gauge"] = result.convention
-    name = f"{nominal.name}-calibrated" if nominal.name else "calibrated"
-    save_geometry(result.geometry.replace(name=name, calibration=calibration), args.out)
-    for path, instrument in zip(setup_paths, result.calibrated_instruments(), strict=False):
-        save_setup_dict(instrument.setup_dict(), path)
-    if args.report:
-        with atomic_write(args.report) as fh:
-            fh.write(text + "\n")
-    if args.json:
-        with atomic_write(args.json) as fh:
-            record = identification_dict(result) | ({"leg_model_choice": choice.to_dict()} if choice else {})
-            fh.write(render("identification", record, "json"))
-    if args.html:
-        from hexcal.report import identification_report, render_html
-
-        files = {"geometry": args.geometry} | {f"data {k + 1}": d for k, d in enumerate(args.data)}
-        files |= {f"setup {k + 1}": s for k, s in enumerate(args.setup or [])}
-        with atomic_write(args.html) as fh:
-            fh.write(render_html(identification_report(result, inputs_record(files, args))))
+    calibration.save(args.out, force=args.force)
+    if args.split and setup_paths:
+        setup_paths = _split_setup_paths(setup_paths[0], [s.label for s in calibration.sessions])
+    calibration.save_setups(setup_paths, force=args.force)
+    written = [("the report", args.report, text + "\n"), ("the JSON result", args.json, None)]
+    written.append(("the HTML report", args.html, None))
+    for _, path, body in written:
+        if not path:
+            continue
+        if body is None:
+            body = calibration.report("json") if path == args.json else calibration.html()
+        with atomic_write(path) as fh:
+            fh.write(body)
     print(text)
-    if result.failed:
+    if calibration.failed:
         warn(f"hexcal: warning: verdict fail, written anyway (--force) to {args.out}")
     print(f"wrote the calibrated geometry to {args.out}")
     for path in setup_paths:
         print(f"wrote the calibrated setup to {path}")
-    unsaved = [s.label for s in sessions if s.instrument.unregistered]
+    for what, path, _ in written:
+        if path:
+            print(f"wrote {what} to {path}")
+    unsaved = [s.label for s in calibration.sessions if s.instrument.unregistered]
     if unsaved and not setup_paths:
         warn(
             "hexcal: warning: the registered frame is not saved: give --setup-out FILE to validate later"
-            + (f" ({', '.join(unsaved)})" if len(sessions) > 1 else "")
+            + (f" ({', '.join(unsaved)})" if len(calibration.sessions) > 1 else "")
         )
 
 
-def _leg_model(args: argparse.Namespace, nominal: Any, sessions: list[Any], noise: Any) -> tuple:
-    """The nominal geometry with the ``--leg-model`` (chosen by cross-validation for ``auto``,
-    the choice and its scores printed), the fitted groups with the model's own, the choice."""
-    from hexcal.calibration.leg_model_choice import choose_leg_model, fit_for, parse_leg_model, start_for
-
-    spec, choice = args.leg_model, None
-    if spec is None:
-        return nominal, args.fit, None
-    if parse_leg_model(spec)[0] == "auto":
-        fix = args.fix or ()
-        choice = choose_leg_model(nominal, sessions, method=args.method, fit=args.fit, fix=fix, noise=noise)
-        print("\n".join(choice.lines()))
-        spec = choice.choice
-    start = start_for(spec, nominal, sessions)
-    return start, fit_for(args.fit, start.leg_model), choice
+def _split_option(values: list[str] | None) -> Any:
+    """``--split`` as the library takes it: ``auto``, or the ``LABEL:ID`` splits."""
+    if not values:
+        return None
+    if "auto" in values:
+        if len(values) > 1:
+            raise CommandError("--split auto splits where the verdict finds steps: give it alone")
+        return "auto"
+    return values
 
 
 def cmd_validate(args: argparse.Namespace) -> None:
@@ -313,8 +306,7 @@ def register(sub: Any) -> None:
             action.help += " (default %(default)s)"
     p.add_argument(
         "--fit",
-        default="joints,l0",
-        help="machine parameter groups: joints, base, platform, l0, gains (default %(default)s); the "
+        help="machine parameter groups: joints, base, platform, l0, gains (default joints,l0); the "
         "instrument quantities a setup does not fix vary too",
     )
     p.add_argument(
@@ -338,22 +330,29 @@ def register(sub: Any) -> None:
         action="store_true",
         help="write the calibrated geometry even when the verdict is fail (default: a fail writes nothing)",
     )
+    from hexcal.calibration.limits import MAX_CHANGE, SIGMA_LIMIT  # constants only: no numpy
+
     p.add_argument(
         "--sigma-limit",
         type=float,
-        default=SIGMA_LIMIT,
         metavar="FRACTION",
         help="identifiability limit: a parameter combination whose predicted σ exceeds this fraction of "
         "the platform radius is poorly determined (warn), beyond 3 times it undetermined (fail); gains: "
-        "1e-3 (relative) per mm of that limit (default %(default)s)",
+        f"1e-3 (relative) per mm of that limit (default {SIGMA_LIMIT})",
     )
     p.add_argument(
         "--max-change",
         type=float,
-        default=MAX_CHANGE,
         metavar="FRACTION",
         help="a parameter change beyond this fraction of the machine's size (base radius for u, platform "
-        "radius for s, the larger for l0, the gain for gains) is implausible: fail (default %(default)s)",
+        f"radius for s, the larger for l0, the gain for gains) is implausible: fail (default {MAX_CHANGE})",
+    )
+    p.add_argument(
+        "--split",
+        action="append",
+        metavar="LABEL:ID",
+        help="split a session before pose ID (its instrument moved there: each part gets its own frame); "
+        "repeat for several, or auto: where the verdict finds a step (default: no split)",
     )
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--report", help="save the report as text (default: not saved)")

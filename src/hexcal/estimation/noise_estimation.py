@@ -18,9 +18,13 @@ Helmert's variance component estimation in Förstner's iterative form (Förstner
 until the variances no longer change. At convergence ``Ω_g = r_g`` for every group (the
 reduced chi-square of every group is 1) and ``var(σ̂_g²) ≈ 2 σ_g⁴ / r_g`` (Gaussian
 noise), so ``se(σ̂_g) ≈ σ_g / sqrt(2 r_g)``. A group whose variance falls to its floor
-(:data:`NOISE_FLOORS`) is held there; a group with too little redundancy
-(:data:`MIN_REDUNDANCY`) keeps its start value and is reported as not estimated, and so is one
-the others' noise hides, which drifts towards zero while the parameters stand (:data:`DRIFT_STEPS`).
+(:data:`NOISE_FLOORS`) is held there. A group these data cannot determine is held at its
+*fallback* (the noise its instrument declares, or the typical noise of its kind: the caller
+says, :mod:`hexcal.instruments.known_noise`; the start value when none is given) and reported
+as not estimated: a group with too little redundancy (:data:`MIN_REDUNDANCY`), and one the
+others' noise hides, which drifts towards zero while the parameters stand
+(:data:`DRIFT_STEPS`). The other groups are then iterated to convergence with it held, so
+the figures do not depend on where an iteration happened to stop.
 
 The same ``Ω_g`` and ``r_g`` under a *given* noise model test it
 (:func:`hexcal.estimation.noise_check.check_noise`).
@@ -269,7 +273,7 @@ class NoiseEstimate:
     redundancy : ndarray, shape (g,)
         Redundancy numbers ``r_g`` (the degrees of freedom of each group).
     estimated : ndarray of bool, shape (g,)
-        False where the redundancy was too small (the start value was kept).
+        False where these data do not determine the group (held at its fallback).
     floored : ndarray of bool, shape (g,)
         True where the σ fell to its floor (:data:`NOISE_FLOORS`).
     iterations : int
@@ -287,6 +291,13 @@ class NoiseEstimate:
     iterations: int
     converged: bool
     keys: tuple[tuple[int, str], ...] = field(default=())
+    hidden: NDArray[np.bool_] | None = None
+
+    @property
+    def hidden_groups(self) -> NDArray[np.bool_]:
+        """True where the others' noise hides a group with enough redundancy (it fell towards 0
+        while the parameters stood): held at its fallback, like one with too little redundancy."""
+        return np.zeros(len(self.groups), dtype=bool) if self.hidden is None else self.hidden
 
     @property
     def noises(self) -> tuple[NoiseModel, ...]:
@@ -310,6 +321,7 @@ class NoiseEstimate:
                 "stderr": float(self.stderr[k]),
                 "redundancy": float(self.redundancy[k]),
                 "estimated": bool(self.estimated[k]),
+                "hidden": bool(self.hidden_groups[k]),
                 "floored": bool(self.floored[k]),
                 "unit": unit,
             }
@@ -334,6 +346,7 @@ def estimate_noise(
     start: NoiseModel | Sequence[NoiseModel] | None = None,
     max_iter: int = 40,
     rtol: float = 1e-3,
+    fallback: NoiseModel | Sequence[NoiseModel] | None = None,
     **options: Any,
 ) -> tuple[NoiseEstimate, Any]:
     """Variance components of the noise groups, iterated with the ``ml`` fit to convergence.
@@ -343,6 +356,8 @@ def estimate_noise(
     problem : Problem
     start : NoiseModel or one per session, optional
         Start values (default the seed paper's noise).
+    fallback : NoiseModel or one per session, optional
+        The σ a group is held at where these data cannot determine it (default ``start``).
     max_iter : int
         Fit ↔ variance-component iterations at most.
     rtol : float
@@ -372,6 +387,7 @@ def estimate_noise(
     n_sessions = len(problem.parts)
     floors = np.array([NOISE_FLOORS.get(name, 1e-8) for _, name in keys])
     sigmas = np.maximum(_start_sigmas(problem, keys, start), floors)
+    held_at = sigmas if fallback is None else np.maximum(_start_sigmas(problem, keys, fallback), floors)
     # one converged fit, then Gauss–Newton steps of the parameters interleaved with the
     # variance-component updates (each step is one pose projection, not a whole fit). The
     # step under the current variances comes first: the update needs the residuals of the
@@ -381,7 +397,7 @@ def estimate_noise(
     poses = None
     converged, it = False, 0
     falling = np.zeros(len(keys), dtype=int)  # consecutive steps each σ fell
-    drifting = np.zeros(len(keys), dtype=bool)
+    hidden = np.zeros(len(keys), dtype=bool)  # held at the fallback: the others' noise hides it
     while it < max_iter:
         it += 1
         inner = Projection(problem, _session_noises(keys, sigmas, n_sessions))
@@ -409,8 +425,8 @@ def estimate_noise(
         if stats.keys != keys:
             raise IdentificationError("variance components need a diagonal instrument covariance")
         poses = [part.poses for part in inner.parts]
-        estimated = stats.redundancy >= MIN_REDUNDANCY
-        new = np.where(estimated, np.maximum(sigmas * _helmert_ratio(stats, estimated), floors), sigmas)
+        estimated = (stats.redundancy >= MIN_REDUNDANCY) & ~hidden
+        new = np.where(estimated, np.maximum(sigmas * _helmert_ratio(stats, estimated), floors), held_at)
         if not np.all(np.isfinite(new)):
             break  # the iteration diverges (a gross error): keep the last finite values
         ratios = new / sigmas
@@ -425,24 +441,36 @@ def estimate_noise(
             converged = True
             break
         # a hidden group drifts towards zero by a few per cent a step (the slow approach to the
-        # boundary) while the parameters stand: stop, report it as not determined (at most this σ)
-        moving = np.abs(ratios - 1) >= rtol
-        hidden = stats.redundancy[moving] < DRIFT_REDUNDANCY
-        if settled and it >= DRIFT_STEPS and np.all(falling[moving] >= DRIFT_STEPS) and np.all(hidden):
-            drifting = moving
-            converged = True
-            break
+        # boundary) while the parameters stand: it is not determined by these data; held at its
+        # fallback from here on, the others converge with it (where it stops would otherwise
+        # depend on the machine's rounding: the figures differed in the third digit)
+        moving = (np.abs(ratios - 1) >= rtol) & estimated
+        weak = stats.redundancy[moving] < DRIFT_REDUNDANCY
+        if settled and it >= DRIFT_STEPS and np.all(falling[moving] >= DRIFT_STEPS) and np.all(weak):
+            hidden |= moving
+            sigmas = np.where(hidden, held_at, sigmas)
+            falling[:] = 0
+            if np.all(hidden | (stats.redundancy < MIN_REDUNDANCY)):
+                converged = True
+                break
     noises = _session_noises(keys, sigmas, n_sessions)
     result = fit_ml(problem, noises, **options)
     stats = group_statistics(problem, noises, result)
     red = stats.redundancy
-    estimated = (red >= MIN_REDUNDANCY) & ~drifting
+    estimated = (red >= MIN_REDUNDANCY) & ~hidden
+    final = np.where(estimated, sigmas, held_at)
     stderr = np.full(len(keys), np.nan)
     if stats.helmert is not None and estimated.any():
         # var(α̂) = 2 M⁻¹ for the variance ratios α (Gaussian noise); σ = sqrt(α) σ₀
         sub = stats.helmert[np.ix_(estimated, estimated)]
         var_alpha = 2 * np.diag(np.linalg.pinv(sub))
         stderr[estimated] = sigmas[estimated] * np.sqrt(np.maximum(var_alpha, 0.0)) / 2
+    if not np.array_equal(final, sigmas):  # a group the last fit showed undetermined
+        sigmas = final
+        noises = _session_noises(keys, sigmas, n_sessions)
+        result = fit_ml(problem, noises, **options)
     floored = sigmas <= floors * (1 + 1e-9)
-    estimate = NoiseEstimate(stats.groups, sigmas, stderr, red, estimated, floored, it, converged, keys)
+    estimate = NoiseEstimate(
+        stats.groups, sigmas, stderr, red, estimated, floored, it, converged, keys, hidden
+    )
     return estimate, result.replace(noise=noises[0], noises=noises)

@@ -33,6 +33,34 @@ def as_sessions(data: Any, model: MeasurementModel | None = None) -> tuple[Sessi
     return (Session(data, full_pose() if model is None else model),)
 
 
+def refuse_repeated_sessions(sessions: Sequence[Session]) -> None:
+    """Refuse a session given twice: two sessions with the same observations (the same ids, leg
+    readings and instrument values), :class:`UsageError` naming both. The same poses measured
+    again (another station, another day) are new observations and pass."""
+    seen: list[tuple[int, Session]] = []
+    labels = session_labels(sessions)
+    for k, session in enumerate(sessions):
+        inst = session.instrument
+        readings = np.asarray(inst.readings(session.data), dtype=float)
+        values, present = inst.observed(session.data)
+        for j, other in seen:
+            o_inst = other.instrument
+            if (
+                type(o_inst) is type(inst)
+                and session.ids == other.ids
+                and np.array_equal(readings, np.asarray(o_inst.readings(other.data), dtype=float))
+                and np.array_equal(present, o_inst.observed(other.data)[1])
+                and np.array_equal(
+                    np.where(present, values, 0.0), np.where(present, o_inst.observed(other.data)[0], 0.0)
+                )
+            ):
+                raise UsageError(
+                    f"the same session twice ({labels[j]} and {labels[k]} hold the same observations: ids, "
+                    "leg readings and measured values): each session counts once; give it once"
+                )
+        seen.append((k, session))
+
+
 def session_labels(sessions: Sequence[Session]) -> tuple[str, ...]:
     """Each session's label (its own, else ``session k``), made unique."""
     labels: list[str] = []

@@ -26,6 +26,7 @@ array([[0.5]])
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -73,6 +74,20 @@ class BallbarModel(MeasurementModel):
 
     def setup_dict(self) -> dict[str, Any] | None:
         return self.setup.to_dict()
+
+    def after_step(self) -> BallbarModel:
+        """A pivot held fixed is free after a step (its cup was knocked)."""
+        if "pivot" not in self.setup.fixed:
+            return self
+        fixed = tuple(f for f in self.setup.fixed if f != "pivot")
+        return BallbarModel(dataclasses.replace(self.setup, fixed=fixed, calibration=None))
+
+    @property
+    def device(self) -> Any:
+        return self.setup.device
+
+    def declared_noise(self) -> dict[str, float]:
+        return dict(self.setup.noise or {})
 
     # -- data ----------------------------------------------------------------------------
     def observed(self, data: BallbarMeasurements) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:

@@ -31,11 +31,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import InputError, UsageError
+from hexcal.instruments.known_noise import Device, declared_noise, device_for, noise_mapping
 
 #: Setup quantities a ballbar setup's ``fixed`` may name.
 BALLBAR_FIXABLE = ("pivot", "ball", "length")
 #: Keys of a ballbar setup mapping, and of its ``ballbar`` mapping.
-BALLBAR_KEYS = ("units", "ballbar", "fixed", "calibration")
+BALLBAR_KEYS = ("units", "instrument", "ballbar", "fixed", "noise", "calibration")
 BAR_KEYS = ("pivot", "ball", "length")
 BALLBAR_NAMES = (*(f"pivot.{a}" for a in "xyz"), *(f"ball.{a}" for a in "xyz"), "length")
 #: The shortest bar (mm) a setup may give: the two balls of a real bar are tens of mm apart.
@@ -72,6 +73,10 @@ class BallbarSetup:
         Kept for the interface of setups (a ballbar has no angles).
     calibration : mapping, optional
         Standard errors of a calibrated setup.
+    noise : mapping, optional
+        The bar's own noise as declared: ``{"position": σ}`` (the file's ``noise: {d: σ}``, mm).
+    instrument : str, optional
+        ``ballbar`` (the only kind that measures a ballbar setup).
     """
 
     pivot: NDArray[np.float64]
@@ -81,6 +86,8 @@ class BallbarSetup:
     euler: str | None = None
     calibration: dict[str, Any] | None = None
     columns: dict[str, str] | None = field(default=None)
+    noise: dict[str, float] | None = None
+    instrument: str | None = None
 
     def __post_init__(self) -> None:
         for what in ("pivot", "ball"):
@@ -99,10 +106,20 @@ class BallbarSetup:
                     f"fixed: unknown quantity {name!r}; choose from {', '.join(BALLBAR_FIXABLE)}"
                 )
         object.__setattr__(self, "fixed", tuple(dict.fromkeys(fixed)))
+        device_for("ballbar", self.instrument)
+        if self.noise is not None:
+            if set(self.noise) != {"position"} or not self.noise["position"] > 0:
+                raise InputError("noise: a ballbar setup declares d (the bar's σ, mm, > 0)")
+            object.__setattr__(self, "noise", {"position": float(self.noise["position"])})
 
     @property
     def kind(self) -> str:
         return "ballbar"
+
+    @property
+    def device(self) -> Device:
+        """The kind of instrument (a ballbar) and the noise such bars have."""
+        return device_for("ballbar", self.instrument)
 
     @property
     def auto(self) -> bool:
@@ -163,6 +180,9 @@ class BallbarSetup:
         calibration = data.get("calibration")
         if calibration is not None and not isinstance(calibration, dict):
             raise InputError("calibration must be a mapping")
+        instrument = data.get("instrument")
+        if instrument is not None:
+            device_for("ballbar", instrument if isinstance(instrument, str) else repr(instrument))
         return cls(
             _point(bar["pivot"], "ballbar.pivot"),
             _point(bar["ball"], "ballbar.ball"),
@@ -170,6 +190,8 @@ class BallbarSetup:
             tuple(fixed),
             None,
             calibration,
+            noise=declared_noise(data["noise"], "ballbar") if "noise" in data else None,
+            instrument=instrument,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -184,6 +206,10 @@ class BallbarSetup:
         }
         if self.fixed:
             out["fixed"] = list(self.fixed)
+        if self.instrument is not None:
+            out["instrument"] = self.instrument
+        if self.noise:
+            out["noise"] = noise_mapping(self.noise, "ballbar")
         if self.calibration is not None:
             out["calibration"] = self.calibration
         return out

@@ -32,6 +32,7 @@ from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import UsageError
+from hexcal.instruments.known_noise import Device, device_for
 
 #: The noise groups an instrument's covariance may depend on (fields of :class:`NoiseModel`).
 NOISE_FIELDS = ("position", "orientation")
@@ -149,6 +150,17 @@ class MeasurementModel(ABC):
                 groups.append(name)
         return tuple(groups)
 
+    @property
+    def device(self) -> Device:
+        """The kind of instrument and the noise such instruments have
+        (:mod:`hexcal.instruments.known_noise`); by default the kind of its name."""
+        return device_for(self.name)
+
+    def declared_noise(self) -> dict[str, float]:
+        """The instrument's own noise as its setup declares it, one σ by noise group (none by
+        default)."""
+        return {}
+
     def uses_pose_covariance(self) -> bool:
         """Whether a full pose covariance (:attr:`NoiseModel.pose_covariance`) changes this
         instrument's noise: it does for an instrument that measures a pose, not for targets."""
@@ -177,6 +189,12 @@ class MeasurementModel(ABC):
         """The instrument as an identification starts from it in a simulated campaign: the
         quantities a user does not know beforehand marked unknown (an instrument frame
         ``auto``); itself by default."""
+        return self
+
+    def after_step(self) -> MeasurementModel:
+        """The instrument of the observations after a step (it was bumped, or what it sees
+        slipped), as a session of their own: what it measured from is unknown again. By default
+        itself: its free quantities are each session's own anyway."""
         return self
 
     @property

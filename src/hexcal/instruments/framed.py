@@ -59,6 +59,13 @@ class FramedModel(MeasurementModel):
         return self.setup.to_dict()
 
     @property
+    def device(self) -> Any:
+        return self.setup.device
+
+    def declared_noise(self) -> dict[str, float]:
+        return dict(self.setup.noise or {})
+
+    @property
     def unregistered(self) -> bool:
         return self.setup.auto
 
@@ -66,6 +73,15 @@ class FramedModel(MeasurementModel):
         if "instrument_frame" in self.setup.fixed:
             return self
         return type(self)(replace(self.setup, frame=None, calibration=None), **self.options())
+
+    def after_step(self) -> MeasurementModel:
+        """A frame held fixed is unknown after a step (``auto``, registered from the data);
+        everything else keeps its setup."""
+        if "instrument_frame" not in self.setup.fixed:
+            return self
+        fixed = tuple(f for f in self.setup.fixed if f != "instrument_frame")
+        setup = replace(self.setup, frame=None, fixed=fixed, calibration=None)
+        return type(self)(setup, **self.options())
 
     def start_poses(self, geometry: Geometry, setup: NDArray[np.float64], data: Any) -> NDArray[np.float64]:
         return fk_start_poses(geometry, self.readings(data))

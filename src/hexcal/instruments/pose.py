@@ -26,6 +26,7 @@ difference of Euler angles wrapped to ``(-π, π]`` (the full-pose model's).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -340,3 +341,8 @@ class FullPoseModel(ToolModel):
 
     def options(self) -> dict[str, Any]:
         return {}
+
+    def after_step(self) -> ToolModel:
+        """The platform pose in an instrument frame of its own, unknown (the measuring system
+        moved): a tool instrument with the identity tool, fixed, and the frame ``auto``."""
+        return ToolModel(replace(self.setup, frame=None, fixed=("tool",), calibration=None), "euler")

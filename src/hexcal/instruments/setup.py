@@ -30,11 +30,23 @@ from numpy.typing import ArrayLike, NDArray
 from hexcal.core.conventions import POSE_NAMES, check_euler, rotation_matrices
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import InputError
+from hexcal.instruments.known_noise import Device, declared_noise, device_for, noise_mapping
 
 #: Setup quantities that ``fixed`` may name.
 FIXABLE = ("instrument_frame", "targets", "tool")
 #: Keys a setup mapping may have.
-SETUP_KEYS = ("units", "euler", "instrument_frame", "targets", "tool", "fixed", "columns", "calibration")
+SETUP_KEYS = (
+    "units",
+    "euler",
+    "instrument",
+    "instrument_frame",
+    "targets",
+    "tool",
+    "fixed",
+    "noise",
+    "columns",
+    "calibration",
+)
 #: Solver scale of a setup angle (rad).
 ANGLE_SCALE = 1e-3
 TARGET_NAME = re.compile(r"^t[1-9][0-9]*$")
@@ -132,6 +144,12 @@ class Setup:
     columns : mapping of str to str, optional
         How the instrument's data files name their columns: hexcal's name -> the file's
         (``{"dl1": "leg_length_1", "qw": "orientation_w"}``); kept by a calibrated setup.
+    noise : mapping of str to float, optional
+        The instrument's own noise as declared, one σ by noise group (``position`` mm,
+        ``orientation`` rad): what the verdict holds the learned noise against.
+    instrument : str, optional
+        The kind of instrument (:data:`hexcal.instruments.known_noise.DEVICES`:
+        ``laser-tracker``, ``6dof-tracker``, ``motion-capture``); default by the setup's kind.
     """
 
     frame: NDArray[np.float64] | None = None
@@ -141,6 +159,8 @@ class Setup:
     euler: str | None = None
     calibration: dict[str, Any] | None = None
     columns: dict[str, str] | None = None
+    noise: dict[str, float] | None = None
+    instrument: str | None = None
 
     def __post_init__(self) -> None:
         if self.targets and self.tool is not None:
@@ -174,6 +194,12 @@ class Setup:
         object.__setattr__(self, "fixed", fixed)
         if self.columns is not None:
             object.__setattr__(self, "columns", _columns(self.columns))
+        device_for(self.kind, self.instrument)  # refuses a kind that does not measure this setup
+        if self.noise is not None:
+            allowed = {"position"} if self.kind == "targets" else {"position", "orientation"}
+            if not set(self.noise) <= allowed or not all(v > 0 for v in self.noise.values()):
+                raise InputError(f"noise: a {self.kind} setup declares {', '.join(sorted(allowed))} (σ > 0)")
+            object.__setattr__(self, "noise", {k: float(v) for k, v in self.noise.items()})
         if self.euler is not None:
             try:
                 check_euler(self.euler)
@@ -207,6 +233,12 @@ class Setup:
     def target_array(self) -> NDArray[np.float64]:
         """Target positions ``(n, 3)``, mm, platform frame."""
         return np.array([self.targets[n] for n in self.target_names]).reshape(-1, 3)
+
+    @property
+    def device(self) -> Device:
+        """The kind of instrument (named by ``instrument``, else by the setup's kind) and the
+        noise such instruments have."""
+        return device_for(self.kind, self.instrument)
 
     def frame_or_identity(self) -> NDArray[np.float64]:
         return np.zeros(6) if self.frame is None else np.array(self.frame)
@@ -309,7 +341,14 @@ class Setup:
         if calibration is not None and not isinstance(calibration, dict):
             raise InputError("calibration must be a mapping")
         columns = _columns(data["columns"]) if "columns" in data else None
-        return cls(frame, dict(targets or {}), tool, tuple(fixed), euler, calibration, columns)
+        kind = "targets" if targets is not None else "tool"
+        instrument = data.get("instrument")
+        if instrument is not None:
+            device_for(kind, instrument if isinstance(instrument, str) else repr(instrument))
+        noise = declared_noise(data["noise"], kind) if "noise" in data else None
+        return cls(
+            frame, dict(targets or {}), tool, tuple(fixed), euler, calibration, columns, noise, instrument
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """The YAML mapping (docs/formats.md "Setup file"): angles in degrees, ``auto`` for an
@@ -324,6 +363,10 @@ class Setup:
             out["tool"] = _pose_mapping(self.tool)
         if self.fixed:
             out["fixed"] = list(self.fixed)
+        if self.instrument is not None:
+            out["instrument"] = self.instrument
+        if self.noise:
+            out["noise"] = noise_mapping(self.noise, self.kind)
         if self.columns:
             out["columns"] = dict(self.columns)
         if self.calibration is not None:

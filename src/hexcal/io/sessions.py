@@ -187,6 +187,7 @@ def read_sessions(
         raise InputError(
             f"{len(data)} data files and {len(setups)} setups: give one setup for all, or one per data file"
         )
+    refuse_repeated_files(data)
     loaded: dict[Any, Any] = {}
     sessions = []
     for k, (path, setup) in enumerate(zip(data, setups, strict=True)):
@@ -200,6 +201,48 @@ def read_sessions(
             label = f"{label} ({k + 1})"
         sessions.append(read_session(path, setup, euler, delimiter, decimal, label, columns))
     return sessions
+
+
+def refuse_repeated_files(paths: Sequence[str | os.PathLike[str]]) -> None:
+    """Refuse a data file given twice (:class:`InputError` naming both): the same path, a link
+    to it, or another file with the same bytes. A session counted twice makes every standard
+    error and prediction √2 too optimistic."""
+    import hashlib
+
+    seen_paths: dict[str, str] = {}
+    seen_bytes: dict[tuple[int, str], str] = {}
+    for path in paths:
+        name = str(path)
+        try:
+            real = os.path.realpath(path)
+            size = os.path.getsize(real)
+        except OSError:
+            continue  # the reader says what is wrong with it
+        if real in seen_paths:
+            first = seen_paths[real]
+            how = (
+                f"{name} given twice"
+                if first == name
+                else f"{name} is a link to {first}"
+                if os.path.islink(name)
+                else f"{first} and {name} are one file"
+            )
+            raise InputError(f"the same session twice ({how}): each session counts once; give it once")
+        seen_paths[real] = name
+        digest = hashlib.sha256()
+        try:
+            with open(real, "rb") as fh:
+                for chunk in iter(lambda: fh.read(1 << 20), b""):
+                    digest.update(chunk)
+        except OSError:
+            continue
+        key = (size, digest.hexdigest())
+        if key in seen_bytes:
+            raise InputError(
+                f"the same session twice ({seen_bytes[key]} and {name} have the same bytes): each session "
+                "counts once; give it once"
+            )
+        seen_bytes[key] = name
 
 
 def save_setup_dict(setup: dict[str, Any] | None, path: str | os.PathLike[str]) -> None:

@@ -28,9 +28,10 @@ Public names
 ------------
 - ``render``, ``render_html``, ``RENDERERS``, ``TEXT_RENDERERS``, ``formats``, ``register``:
   results rendered by kind and format (text, json, html), and how to add a renderer.
-- ``identification_dict``, ``identification_report_dict``, ``validation_dict``, ``validation_json``,
-  ``json_text``: results as plain dictionaries and strict JSON (docs/formats.md "JSON
-  outputs").
+- ``calibration_dict``, ``identification_dict``, ``identification_report_dict``,
+  ``validation_dict``, ``validation_json``, ``json_text``: results as plain dictionaries and
+  strict JSON (docs/formats.md "JSON outputs"); ``calibration_summary``: a calibration as an
+  HTML fragment (a notebook's view).
 - ``format_identification_report``, ``format_validation``, ``identification_text``,
   ``validation_text``, ``study_text``, ``paper_text``, ``observability_text``,
   ``select_text``: the text reports the commands print.
@@ -77,6 +78,8 @@ _NAMES = {
     "format_validation": "text",
     "formats": "registry",
     "html_page": "html",
+    "calibration_dict": "convert",
+    "calibration_summary": "calibration_pages",
     "identification_dict": "convert",
     "identification_page": "calibration_pages",
     "identification_report": "calibration_pages",
@@ -140,6 +143,8 @@ _NAMES = {
 __all__ = [
     "RENDERERS",
     "TEXT_RENDERERS",
+    "calibration_dict",
+    "calibration_summary",
     "errormap_tables",
     "format_identification_report",
     "format_validation",

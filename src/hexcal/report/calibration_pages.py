@@ -79,9 +79,16 @@ WIDE_CORRELATION = 24
 def identification_report(
     result: Any, inputs: Mapping[str, Any] | None = None, title: str = ""
 ) -> dict[str, Any]:
-    """Everything the identify page shows, from an identification (any instrument, any number
-    of sessions); ``inputs`` names the files, options and versions that produced the result."""
-    summary = result.to_dict()
+    """Everything the identify page shows, from a calibration (:class:`hexcal.Calibration`: its
+    ``to_dict()``, the text's and the JSON's schema) or an identification (any instrument, any
+    number of sessions); ``inputs`` names the files, options and versions that produced it
+    (default the calibration's own)."""
+    if hasattr(result, "leg_model_choice") and hasattr(result, "result"):  # a Calibration
+        summary = result.to_dict()
+        inputs = summary.get("inputs") if inputs is None else inputs
+        result = result.result
+    else:
+        summary = result.to_dict()
     estimator = ESTIMATORS.get(summary["method"])
     if estimator is not None:
         summary["method_label"] = f"{estimator.name}: {estimator.label}"
@@ -284,6 +291,63 @@ def parameter_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
     return rows
 
 
+def _leg_model_section(result: Mapping[str, Any]) -> str:
+    """The leg model and, for ``auto``, the cross-validation's candidates and scores."""
+    choice = result.get("leg_model_choice")
+    model = result.get("leg_model", "linear")
+    if not choice:
+        return "" if model == "linear" else section("Leg model", f"<p>{esc(model)}</p>", "leg-model")
+    rows = [
+        (
+            name + (" (chosen)" if name == choice["choice"] else ""),
+            s["leg_rms_mm"],
+            s["position_rms_mm"],
+            1e3 * s["orientation_rms_rad"],
+            s["parameters"],
+        )
+        for name, s in choice["scores"].items()
+    ]
+    table = data_table(
+        ("candidate", "held-out leg RMS (mm)", "position RMS (mm)", "orientation RMS (mrad)", "parameters"),
+        rows,
+        table_id="leg-model-scores",
+    )
+    text = (
+        f"<p>{esc(model)}, chosen by cross-validation ({esc(choice['scheme'])}; {esc(choice['rule'])}).</p>"
+    )
+    return section("Leg model", text + table, "leg-model")
+
+
+def _splits_section(result: Mapping[str, Any]) -> str:
+    """Where sessions were split where their instrument moved."""
+    splits = result.get("splits") or []
+    if not splits:
+        return ""
+    body = f"<p>Sessions split before {esc(', '.join(splits))}.</p>"
+    first = result.get("before_split")
+    if first:
+        body += "<p>The sessions as given:</p>" + verdict_block(
+            first.get("verdict"), first.get("reasons", ())
+        )
+    return section("Splits", body, "splits")
+
+
+def calibration_summary(result: Mapping[str, Any]) -> str:
+    """A calibration in a notebook (``Calibration._repr_html_``): the verdict, the leg model and
+    the parameters, as an HTML fragment of :func:`hexcal.report.calibration_dict`'s mapping."""
+    table = data_table(
+        ("parameter", "unit", "nominal", "identified", "change", "std. error", "Cramér–Rao σ"),
+        parameter_rows(result),
+        table_id="parameters",
+    )
+    head = (
+        f"<p><b>Calibration</b>: {esc(result.get('poses'))} poses, {len(result.get('names') or ())} "
+        f"parameters, estimator {esc(result.get('method'))}, "
+        f"leg model {esc(result.get('leg_model', 'linear'))}</p>"
+    )
+    return "<div>" + head + _verdict(result) + table + "</div>"
+
+
 def identification_page(report: Mapping[str, Any]) -> str:
     """The page of ``hexcal identify --html``: the verdict (failures first), statistics, noise,
     sessions, parameters, figures, inputs."""
@@ -295,6 +359,8 @@ def identification_page(report: Mapping[str, Any]) -> str:
         section("Fit statistics", key_value_table(fit_statistics(result)), "statistics"),
         _noise_section(result),
         _sessions_section(result),
+        _leg_model_section(result),
+        _splits_section(result),
         section(
             "Parameters",
             data_table(

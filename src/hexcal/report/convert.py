@@ -88,18 +88,44 @@ def identification_report_dict(
     correlations = [
         [result.names[iu[0][k]], result.names[iu[1][k]], float(corr[iu[0][k], iu[1][k]])] for k in strong
     ]
-    bound = result.bound
     return {
         **identification_dict(result, outliers, flagged),
         "dof": result.dof,
         "reduced_chi2": float(result.reduced_chi2),
         "noise_text": None if result.noise is None else result.noise.describe(),
-        "stderr_values": result.stderr.tolist(),
-        "bound": None if bound is None else np.asarray(bound, dtype=float).tolist(),
         "max_correlations": max_correlations,
         "correlations": correlations,
         "weak": _weak_combinations(result),
     }
+
+
+def calibration_dict(calibration: Any) -> dict[str, Any]:
+    """The one schema of a calibration (:class:`hexcal.Calibration`): what the text, JSON and
+    HTML reports of ``hexcal identify`` render, and exactly its ``--json`` file.
+
+    The keys of :func:`identification_report_dict` of its fit, plus ``leg_model`` (the model of
+    the calibrated geometry), ``leg_model_choice`` (the cross-validation of ``auto``: scheme,
+    candidates and scores; None otherwise), ``splits`` (``LABEL:ID`` where sessions were split),
+    ``before_split`` (the verdict of the sessions as given, when ``split="auto"`` split them;
+    else None) and ``inputs`` (the files and options, by label).
+    """
+    out = identification_report_dict(calibration.result)
+    choice = calibration.leg_model_choice
+    first = calibration.before_split
+    out["leg_model"] = calibration.leg_model
+    out["leg_model_choice"] = None if choice is None else choice.to_dict()
+    out["splits"] = list(calibration.splits)
+    out["before_split"] = (
+        None
+        if first is None
+        else first.result.verdict.to_dict()
+        | {
+            "noise": first.result.noise_dict(),
+            "leg_rms_after": first.result.leg_rms_after,
+        }
+    )
+    out["inputs"] = dict(calibration.inputs)
+    return out
 
 
 def validation_dict(calibrated: Any, nominal: Any | None = None) -> dict[str, Any]:

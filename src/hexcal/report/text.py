@@ -261,6 +261,43 @@ def session_lines(data: dict[str, Any]) -> list[str]:
     return lines
 
 
+def _number(value: Any) -> float:
+    """A figure of the dict (None where the JSON has null) as a float."""
+    return float("nan") if value is None else float(value)
+
+
+def leg_model_lines(data: dict[str, Any]) -> list[str]:
+    """The leg model, and the cross-validation that chose it (``leg_model="auto"``)."""
+    choice = data.get("leg_model_choice")
+    if not choice and data.get("leg_model", "linear") == "linear":
+        return []
+    lines = ["[[Leg model]]", f"    {data.get('leg_model', '')}"]
+    if choice:
+        lines[-1] += f", chosen by cross-validation ({choice['scheme']}; {choice['rule']})"
+        for name, s in choice["scores"].items():
+            mark = " <- chosen" if name == choice["choice"] else ""
+            lines.append(
+                f"    {name:<10} held-out leg RMS {s['leg_rms_mm']:.4g} mm, position RMS "
+                f"{_number(s['position_rms_mm']):.4g} mm, orientation RMS "
+                f"{_number(s['orientation_rms_rad']):.3g} rad ({s['parameters']:d} machine parameters){mark}"
+            )
+    return lines
+
+
+def split_lines(data: dict[str, Any]) -> list[str]:
+    """Where sessions were split, and what the sessions as given showed."""
+    if not data.get("splits"):
+        return []
+    lines = ["[[Splits]]", "    sessions split before " + ", ".join(data["splits"])]
+    first = data.get("before_split")
+    if first:
+        lines.append(
+            f"    as given: verdict {first['verdict']}, leg RMS after {first['leg_rms_after']:.4g} mm "
+            f"(split: {data['leg_rms_after']:.4g} mm)"
+        )
+    return lines
+
+
 def identification_text(data: dict[str, Any]) -> str:
     """Text report of an identification, in the spirit of lmfit's ``fit_report``.
 
@@ -271,15 +308,16 @@ def identification_text(data: dict[str, Any]) -> str:
     n = len(names)
     lines = verdict_lines(data) + _fit_statistics(data, unit, data["outliers"]) + noise_lines(data)
     lines += session_lines(data)
+    lines += leg_model_lines(data) + split_lines(data)
     bound = data["bound"]
     header = f"    {'name':<8}{'nominal':>14}{'identified':>14}{'change':>12}{'stderr':>12}"
     header += f"{'CR bound':>12}" if bound is not None else ""
     lines += ["[[Parameters]]", header + "  unit"]
-    for k, name in enumerate(names):
-        start, value, err = data["start"][name], data["parameters"][name], data["stderr_values"][k]
-        start, value, err = (display(name, v) for v in (start, value, err))
+    for name in names:
+        start, value, err = data["start"][name], data["parameters"][name], data["stderr"][name]
+        start, value, err = (display(name, _number(v)) for v in (start, value, err))
         row = f"    {name:<8}{start:>14.6f}{value:>14.6f}{value - start:>+12.6f}{err:>12.6f}"
-        row += f"{display(name, bound[k]):>12.6f}" if bound is not None else ""
+        row += f"{display(name, _number(bound[name])):>12.6f}" if bound is not None else ""
         lines.append(row + f"  {_UNIT_TEXT[parameter_unit(name)]}")
     if bound is not None:
         lines.append(

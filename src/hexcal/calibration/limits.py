@@ -1,0 +1,46 @@
+"""The verdict's limits and defaults, in one place, for Python and the command line alike.
+
+Every threshold of the verdict (:mod:`hexcal.calibration.verdict` and the modules that find its
+reasons) is here, with what it means; ``hexcal identify`` shows them as its options' defaults
+and decides nothing of its own. Standard library only (the command line's help reads them
+without numpy).
+
+>>> SIGMA_LIMIT, MAX_CHANGE
+(0.2, 0.25)
+"""
+
+#: The identifiability limit, as a fraction of the platform radius: a parameter combination
+#: whose predicted σ exceeds it is poorly determined (``warn``), beyond :data:`FAIL_FACTOR`
+#: times it not determined (``fail``); gains: 1e-3 (relative) per mm of it, instrument angles
+#: 1e-3 rad per mm.
+SIGMA_LIMIT = 0.2
+
+#: A combination whose predicted σ exceeds the limit is poorly determined (``warn``); beyond
+#: this many times the limit it is not determined at all (``fail``).
+FAIL_FACTOR = 3.0
+
+#: Largest plausible change of a parameter, as a fraction of the machine's size (base radius
+#: for ``u``, platform radius for ``s``, the larger for ``l0``; of the gain for gains): beyond
+#: it, ``fail``.
+MAX_CHANGE = 0.25
+
+#: Robust σ beyond which a pose's leg residual is an outlier (``warn``) ...
+SCREEN_THRESHOLD = 8.0
+#: ... and this many times that, a gross error (``fail``).
+GROSS_FACTOR = 5.0
+
+#: A learned σ more than this many times its reference (the σ a setup declares, else the most
+#: that instruments of its kind show) means the model does not describe the data: ``warn``
+#: (:mod:`hexcal.calibration.noise_judgement`) ...
+MODEL_ERROR_FACTOR = 3.0
+#: ... and more than this many times the most such instruments show: ``fail``.
+MODEL_ERROR_FAIL = 10.0
+
+#: Level of the test for steps and drifts in each session's acquisition order (all families,
+#: all split points together; :mod:`hexcal.calibration.sequence`).
+SEQUENCE_ALPHA = 1e-3
+#: A step or drift that would shrink the learned noise by more than this factor (it explains
+#: more than 1 - 1/1.5² = 56 % of the residuals) is a ``fail``, a smaller one a ``warn``.
+FAIL_INFLATION = 1.5
+#: The fewest observations on either side of a step.
+MIN_SEGMENT = 5
