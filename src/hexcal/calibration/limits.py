@@ -40,7 +40,11 @@ MODEL_ERROR_FAIL = 10.0
 #: all split points together; :mod:`hexcal.calibration.sequence`).
 SEQUENCE_ALPHA = 1e-3
 #: A step or drift that would shrink the learned noise by more than this factor (it explains
-#: more than 1 - 1/1.5² = 56 % of the residuals) is a ``fail``, a smaller one a ``warn``.
+#: more than 1 - 1/1.5² = 56 % of the residuals) is a ``fail`` ...
 FAIL_INFLATION = 1.5
+#: ... one that explains at least this share of the residuals a ``warn``, a smaller one (found,
+#: but a small part of what the fit leaves, as beside a model error that follows the poses) an
+#: ``info``.
+WARN_SHARE = 0.1
 #: The fewest observations on either side of a step.
 MIN_SEGMENT = 5

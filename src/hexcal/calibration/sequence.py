@@ -24,12 +24,17 @@ q))``, so that a noise learned too large does not hide it. A step's ``p`` is its
 split points times their number (Bonferroni: the max of correlated statistics, conservative) and
 times the number of families; a split leaves at least :data:`MIN_SEGMENT` observations on each
 side (a single bad pose is an outlier, found by the outlier screen). A finding is reported
-below :data:`ALPHA`; the step or the drift, whichever explains more of the residuals. Its size
-(the family's change, in mm and degrees) is the linearised estimate ``M⁺ s``.
+below :data:`ALPHA`: the candidate (step or drift, of any family) of the smallest ``p``. Its
+size (the family's change, in mm and degrees) is the linearised estimate ``-M⁺ s``. It is a
+``fail`` when it explains so much of the residuals that the learned noise is
+:data:`~hexcal.calibration.limits.FAIL_INFLATION` times what it would be without it, a
+``warn`` when it explains at least :data:`~hexcal.calibration.limits.WARN_SHARE` of them, else
+an ``info`` (found, but a small part of what the fit leaves: beside a model error that follows
+the poses, a test in acquisition order cannot tell order from pose).
 
 The remedies: a step splits the session there into two sessions (each with its own instrument
-quantities: :func:`split_session`); a drift wants the cause in the model (the legs'
-temperatures, issue of thermal leg models) or shorter sessions.
+quantities: :func:`hexcal.calibration.splitting.split_sessions`); a drift wants the cause in
+the model (the legs' temperatures with a thermal leg model) or shorter sessions.
 
 >>> F_TESTS  # the statistics' names in reports
 ('step', 'drift')
@@ -44,7 +49,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.calibration.limits import FAIL_INFLATION, MIN_SEGMENT
+from hexcal.calibration.limits import FAIL_INFLATION, MIN_SEGMENT, WARN_SHARE
 from hexcal.calibration.limits import SEQUENCE_ALPHA as ALPHA
 from hexcal.calibration.reasons import Reason
 from hexcal.errors import HexcalError, UsageError
@@ -97,7 +102,9 @@ class SequenceFinding:
 
     @property
     def severity(self) -> str:
-        return "fail" if self.inflation >= FAIL_INFLATION else "warn"
+        if self.inflation >= FAIL_INFLATION:
+            return "fail"
+        return "warn" if self.explained >= WARN_SHARE else "info"
 
     def describe_size(self) -> str:
         size = self.size
