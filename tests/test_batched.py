@@ -49,7 +49,9 @@ def random_trials(nominal, true_machine, simulate, trials, m=15, seed=0, noise=N
 
 
 def one_at_a_time(nominal, readings, poses, method, mask=None, noise=None):
-    """Values of the one-at-a-time solver, iterated to its optimum; NaN rows where it fails."""
+    """Values of the one-at-a-time solver, iterated to its optimum; NaN rows where it fails.
+    The noise is the batched solver's (the seed paper's unless given), not learned."""
+    noise = NoiseModel() if noise is None else noise
     out = []
     for r, p in zip(readings, poses, strict=True):
         try:
