@@ -88,8 +88,13 @@ def test_every_instrument_kind_has_a_noise_range_with_its_source():
 
 def test_a_setup_declares_its_instrument_and_noise_and_bad_ones_are_one_line():
     setup = Setup.from_dict(
-        {"units": "mm", "instrument_frame": "auto", "tool": {"x": 0, "y": 0, "z": 0, "a": 0, "b": 0, "c": 0},
-         "instrument": "motion-capture", "noise": {"position": 0.2, "orientation_deg": 0.1}}
+        {
+            "units": "mm",
+            "instrument_frame": "auto",
+            "tool": {"x": 0, "y": 0, "z": 0, "a": 0, "b": 0, "c": 0},
+            "instrument": "motion-capture",
+            "noise": {"position": 0.2, "orientation_deg": 0.1},
+        }
     )
     assert setup.device.name == "motion-capture"
     assert setup.noise == pytest.approx({"position": 0.2, "orientation": np.deg2rad(0.1)})
@@ -215,7 +220,7 @@ def test_clean_campaigns_have_no_step_and_no_drift(seed):
 
 def test_a_failed_calibration_is_not_saved_from_python(bumped, tmp_path):
     failed = hexcal.calibrate(NOMINAL, [bumped])
-    with pytest.raises(CalibrationFailed, match="verdict fail: run.csv: a step between poses p29 and p30"):
+    with pytest.raises(CalibrationFailed, match=r"verdict fail: run\.csv: a step between poses p29 and p30"):
         failed.save(tmp_path / "cal.yaml")
     assert not (tmp_path / "cal.yaml").exists()
     failed.save(tmp_path / "cal.yaml", force=True)
@@ -234,9 +239,13 @@ def test_estimate_and_calibrate_hold_the_command_lines_defaults():
 
 def test_the_same_session_twice_is_refused(bumped):
     copy = Session(bumped.data, bumped.instrument, "copy.csv")
-    with pytest.raises(UsageError, match="the same session twice .run.csv and copy.csv hold the same observations"):
+    with pytest.raises(
+        UsageError, match=r"the same session twice \(run\.csv and copy\.csv hold the same observations"
+    ):
         estimate(NOMINAL, [bumped, copy])
     # the same poses measured again (new values) are another session
     again = campaign(seed=1, bump_at=30).data
     noisy = again.replace(targets=again.targets + 0.001)
-    estimate(NOMINAL, [bumped, Session(noisy, bumped.instrument, "again.csv")], with_bound=False, verdict=False)
+    estimate(
+        NOMINAL, [bumped, Session(noisy, bumped.instrument, "again.csv")], with_bound=False, verdict=False
+    )
