@@ -198,6 +198,7 @@ def fit_ml(
     xtol: float = 1e-10,
     max_nfev: int | None = 500,
     polish: int = 0,
+    start: NDArray[np.float64] | None = None,
     **_: Any,
 ) -> IdentificationResult:
     """Maximum-likelihood identification with the poses as nuisance parameters.
@@ -213,6 +214,9 @@ def fit_ml(
     polish : int
         Gauss–Newton steps after the outer Levenberg–Marquardt, to resolve the optimum
         within rounding (:func:`hexcal.estimation.least_squares.solve_least_squares`).
+    start : ndarray, optional
+        Solver variables to start from (a warm start near a known solution, e.g. the noise
+        estimation's last iterate); default the start values (or the GLS estimate).
 
     Returns
     -------
@@ -247,7 +251,10 @@ def fit_ml(
             )
     rms_before = rms(inner.residuals(x0))
     x_start = x0
-    if problem.determines_pose:
+    if start is not None:
+        x_start = np.asarray(start, dtype=float)
+        inner.reset()
+    elif problem.determines_pose:
         # start from the GLS estimate: the same estimator to first order, five times cheaper,
         # so LM needs only a couple of full likelihood iterations
         x_start, *_ = solve_gls(problem, noises, 1, xtol, check=False)
