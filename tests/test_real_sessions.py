@@ -117,7 +117,9 @@ def test_identify_session_1_then_validate_on_session_2(capsys, tmp_path):
     assert result["noise"]["source"] == "estimated"  # noise auto: identify's default
     # below the independent LS fit's 0.409 mm (poses exact), above 0.30 (its noise: leg σ ≈ 0.39 mm)
     assert 0.30 < result["leg_rms_after"] < 0.42
-    assert result["leg_rms_before"] > 2.5  # the design is millimetres from the machine (2.92 mm)
+    # the design is millimetres from the machine (2.16 mm at the poses estimated under the learned
+    # noise, the motion capture's position held at its typical 0.2 mm; 2.92 mm at the measured ones)
+    assert result["leg_rms_before"] > 2.0
     calibrated = load_setup(setup_out)
     assert calibrated.columns == load_setup(SETUP).columns  # the calibrated setup reads the same files
     gains = np.array(yaml.safe_load(out.read_text())["leg_gains"])

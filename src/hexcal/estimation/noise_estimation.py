@@ -54,7 +54,10 @@ NOISE_FLOORS = {"leg": 1e-5, "position": 1e-5, "orientation": 1e-8}
 #: A group with less redundancy than this keeps its start value (not estimated).
 MIN_REDUNDANCY = 2.0
 
-#: Steps in a row a group's σ falls, parameters settled and redundancy below DRIFT_REDUNDANCY
+#: A step that keeps more than this share of a σ is a slow fall (a hidden group's creep).
+SLOW_FALL = 0.5
+
+#: Steps in a row a group's σ falls slowly, parameters settled and redundancy below DRIFT_REDUNDANCY
 #: (a group the data see converges, however slowly), before it counts as not determined.
 DRIFT_STEPS, DRIFT_REDUNDANCY = 5, 20.0
 
@@ -396,7 +399,7 @@ def estimate_noise(
     x = _solver_variables(problem, fit_ml(problem, _session_noises(keys, sigmas, n_sessions), **options))
     poses = None
     converged, it = False, 0
-    falling = np.zeros(len(keys), dtype=int)  # consecutive steps each σ fell
+    falling = np.zeros(len(keys), dtype=int)  # consecutive steps each σ fell slowly
     hidden = np.zeros(len(keys), dtype=bool)  # held at the fallback: the others' noise hides it
     while it < max_iter:
         it += 1
@@ -425,13 +428,18 @@ def estimate_noise(
         if stats.keys != keys:
             raise IdentificationError("variance components need a diagonal instrument covariance")
         poses = [part.poses for part in inner.parts]
+        # a group with too little redundancy keeps its σ while the others converge (set to its
+        # fallback only at the end: set at once, one near the limit swings between the two, 40
+        # steps without converging on real data); a hidden one is at its fallback from now on
         estimated = (stats.redundancy >= MIN_REDUNDANCY) & ~hidden
-        new = np.where(estimated, np.maximum(sigmas * _helmert_ratio(stats, estimated), floors), held_at)
+        new = np.where(estimated, np.maximum(sigmas * _helmert_ratio(stats, estimated), floors), sigmas)
         if not np.all(np.isfinite(new)):
             break  # the iteration diverges (a gross error): keep the last finite values
         ratios = new / sigmas
         change = float(np.max(np.abs(ratios - 1)))
-        falling = np.where(ratios < 1 - rtol, falling + 1, 0)
+        # slowly: a hidden group creeps towards 0 by a few per cent a step, a group with no noise
+        # at all falls to its floor by large steps (and is no hidden group: exact data)
+        falling = np.where((ratios < 1 - rtol) & (ratios > SLOW_FALL), falling + 1, 0)
         sigmas = new
         # the parameters need only be near the fit of these variances (a µm, in solver units):
         # the final fit below refines them; a group with hardly any redundancy converges
@@ -461,7 +469,10 @@ def estimate_noise(
     stats = group_statistics(problem, noises, result)
     red = stats.redundancy
     estimated = (red >= MIN_REDUNDANCY) & ~hidden
-    final = np.where(estimated, sigmas, held_at)
+    # the undetermined groups at their fallback; one that fell to its floor stays there (the data
+    # show no noise in it: exact data)
+    at_floor = sigmas <= floors * (1 + 1e-9)
+    final = np.where(estimated | (at_floor & ~hidden), sigmas, held_at)
     stderr = np.full(len(keys), np.nan)
     if stats.helmert is not None and estimated.any():
         # var(α̂) = 2 M⁻¹ for the variance ratios α (Gaussian noise); σ = sqrt(α) σ₀
