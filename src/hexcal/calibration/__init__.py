@@ -16,8 +16,9 @@ Public names
   pose accuracy after calibration.
 - ``circular_test``, ``CircularTest``, ``pose_statistics``, ``PoseStatistics``,
   ``repeated_visits``: the ISO 230-4 circular test and the ISO 9283 pose accuracy and
-  repeatability (docs/iso-tests.md); ``circular_tests``, ``pose_tests``: the same of
-  validations, before and after calibration.
+  repeatability (docs/iso-tests.md); ``iso_validations``, ``IsoValidations``: the
+  validations behind them, before and after calibration, the setup taken as each column needs
+  it; ``circular_tests``, ``pose_tests``: the tests of those validations.
 
 Other names of the lazy map below (limits, Jacobians and registration steps the verdict and
 the planning layer share) are not part of the API.
@@ -32,6 +33,8 @@ _NAMES = {
     "PoseStatistics": "iso_poses",
     "circular_test": "iso_tests",
     "circular_tests": "iso_validation",
+    "IsoValidations": "iso_validation",
+    "iso_validations": "iso_validation",
     "pose_statistics": "iso_poses",
     "pose_tests": "iso_validation",
     "repeated_visits": "iso_poses",
@@ -70,6 +73,7 @@ __all__ = [
     "SEVERITIES",
     "SIGMA_LIMITS",
     "CircularTest",
+    "IsoValidations",
     "PoseStatistics",
     "Quality",
     "Reason",
@@ -80,6 +84,7 @@ __all__ = [
     "circular_tests",
     "diagnose",
     "estimate",
+    "iso_validations",
     "pose_error_map",
     "pose_statistics",
     "pose_tests",
