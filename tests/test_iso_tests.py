@@ -199,6 +199,12 @@ def test_points_commanded_on_the_circle():
     assert off.runs["ccw"].g == pytest.approx(1.0, abs=1e-9)  # 100.5 - 99.5
     assert on.runs["ccw"].g == pytest.approx(0, abs=1e-12)
     assert on.runs["ccw"].f_max == pytest.approx(0, abs=1e-12)
+    # 5 mm out of round (5 % of the radius): no commanded circle (1 %), but positions that only
+    # locate the points (a machine's path) may be that far off (10 %)
+    oval = ring(t) * (1 + 0.05 * np.cos(np.radians(2 * t)))[:, None]
+    with pytest.raises(InputError, match="commanded positions are no circle"):
+        circular_test(oval, np.zeros(12), direction=np.ones(12))
+    assert circular_test(oval, np.zeros(12), direction=np.ones(12), on_circle=True).runs["ccw"].g < 1e-12
 
 
 def test_a_tolerance_that_chains_distinct_poses_is_refused():

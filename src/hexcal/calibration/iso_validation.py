@@ -28,11 +28,12 @@ up): ISO 230-4 holds them all (re-registering a pivot would absorb the centre of
 there to show), ISO 9283 re-registers what the setup leaves free, as validate does.
 
 **ISO 230-4 on a one-distance instrument** (a ball bar). For each geometry, the commanded
-circle is the least-squares circle of its forward kinematics of the readings (for the nominal
-geometry, what the nominal controller commanded; for the calibrated one, the circle a
-controller compensated with it is taken to command), every observation commanded on it at its
-own angle; the actual point lies at ``R0 + d``, with ``d`` the measured distance minus the one
-that geometry predicts (validate's held-out prediction error, negated). After calibration
+circle is the least-squares circle of its forward kinematics of the readings. For the nominal
+geometry these positions are what the nominal controller commanded, and the actual point lies
+at ``|q - c0| + d``; for the calibrated one they are the path the machine took, which only
+locates each point on the circle a controller compensated with it is taken to command (at its
+own angle): the actual point lies at ``R0 + d``. In both, ``d`` is the measured distance minus
+the one that geometry predicts (validate's held-out prediction error, negated). After calibration
 ``d`` is what the calibrated model does not explain: to first order in the model's errors, what
 a compensated machine would deviate from the circle (not a second measured run). The
 deviations are along the bar: radial when the pivot lies in the circle's plane.
@@ -205,7 +206,11 @@ def iso_validations(
 
 def circular_tests(session: Session, results: Mapping[str, ValidationResult]) -> dict[str, CircularTest]:
     """The ISO 230-4 test of each geometry's validation (module docstring), by the results'
-    names (:func:`iso_validations` takes the setup as each column needs it)."""
+    names (:func:`iso_validations` takes the setup as each column needs it). The one named
+    ``nominal`` is the before column: its positions are the commanded path itself (within 1 %
+    of a circle, each point where it was commanded); every other result's positions locate its
+    points on the circle its controller is taken to command (within 10 %: the path the machine
+    took)."""
     check_circle_instrument(session.instrument)
     if not results:
         raise UsageError("--iso230-4: no validation to test")
@@ -215,7 +220,8 @@ def circular_tests(session: Session, results: Mapping[str, ValidationResult]) ->
             raise UsageError("--iso230-4: the validation has no prediction errors of the instrument")
         deviation = -result.instrument_residuals[:, 0]
         keep = np.isfinite(deviation) & np.all(np.isfinite(result.model_poses), axis=1)
-        out[name] = circular_test(result.model_poses[keep, :3], deviation[keep], on_circle=True)
+        located = name != "nominal"
+        out[name] = circular_test(result.model_poses[keep, :3], deviation[keep], on_circle=located)
     return out
 
 
