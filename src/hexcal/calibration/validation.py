@@ -20,7 +20,10 @@ fitted (machine fixed, maximum likelihood) on the other folds predicts each fold
 pose is judged by frames it helped to fit. The default, 5 folds, fits the frames on 80 % of the
 session (their own error then adds about ``p / (0.8 m k)`` of the noise variance for ``p``
 free quantities, ``m`` poses and ``k`` values per pose) and judges every pose once. The
-registration on all the poses is reported beside the figures.
+registration on all the poses is reported beside the figures. What the session cannot
+determine (a ball bar's pivot and ball on one level circle) is held as given and named
+(:mod:`hexcal.calibration.reregistration`); ``register=`` names the quantities to re-register
+when they are not the free ones (the ISO reports: :mod:`hexcal.calibration.iso_validation`).
 
 Compensation (leg commands for targets) is :mod:`hexcal.core.compensation`.
 """
