@@ -23,8 +23,9 @@ Public names
   pose accuracy after calibration.
 - ``circular_test``, ``CircularTest``, ``pose_statistics``, ``PoseStatistics``,
   ``repeated_visits``: the ISO 230-4 circular test and the ISO 9283 pose accuracy and
-  repeatability (docs/iso-tests.md); ``circular_tests``, ``pose_tests``: the same of
-  validations, before and after calibration.
+  repeatability (docs/iso-tests.md); ``iso_validations``, ``IsoValidations``: the
+  validations behind them, before and after calibration, the setup taken as each column needs
+  it; ``circular_tests``, ``pose_tests``: the tests of those validations.
 
 Other names of the lazy map below (limits, Jacobians and registration steps the verdict and
 the planning layer share) are not part of the API.
@@ -39,6 +40,8 @@ _NAMES = {
     "PoseStatistics": "iso_poses",
     "circular_test": "iso_tests",
     "circular_tests": "iso_validation",
+    "IsoValidations": "iso_validation",
+    "iso_validations": "iso_validation",
     "pose_statistics": "iso_poses",
     "pose_tests": "iso_validation",
     "repeated_visits": "iso_poses",
@@ -86,6 +89,7 @@ __all__ = [
     "SIGMA_LIMIT",
     "SIGMA_LIMITS",
     "CircularTest",
+    "IsoValidations",
     "PoseStatistics",
     "Quality",
     "Reason",
@@ -98,6 +102,7 @@ __all__ = [
     "diagnose",
     "estimate",
     "group_references",
+    "iso_validations",
     "noise_findings",
     "pose_error_map",
     "pose_statistics",

@@ -207,23 +207,23 @@ def cmd_validate(args: argparse.Namespace) -> None:
     if len(sessions) != 1:
         raise CommandError("validate: give one --data file (validate each session on its own)")
     session = sessions[0]
-    from hexcal.cli.iso import check_iso, iso_page, iso_results
+    from hexcal.cli.iso import check_iso, iso_page, iso_results, iso_validations
 
     check_iso(args, session)
     options = {"folds": args.folds, "seed": args.seed}
-    calibrated = validate(geometry, session, **options)
-    nominal = None
-    if args.nominal:
-        calibrated_setup = (session.instrument.setup_dict() or {}).get("calibration") is not None
-        if calibrated.registration is None and calibrated_setup:
-            raise CommandError(
-                "--nominal with a calibrated setup whose quantities are all fixed: they were calibrated "
-                "with the machine, so the nominal machine cannot be judged through them; leave the frame "
-                "free (auto, or not in fixed:) so that validate re-registers it for each machine"
-            )
-        nominal = validate(load_geometry(args.nominal, geometry.euler), session, **options)
+    nominal_geometry = load_geometry(args.nominal, geometry.euler) if args.nominal else None
+    checked = iso_validations(args, geometry, session, nominal_geometry)
+    if checked is not None:
+        calibrated, nominal = checked.after_result, checked.results.get("nominal")
+    else:
+        from hexcal.calibration.iso_validation import check_nominal_setup
+
+        calibrated, nominal = validate(geometry, session, **options), None
+        if nominal_geometry is not None:
+            check_nominal_setup(session.instrument, calibrated)
+            nominal = validate(nominal_geometry, session, **options)
     print(render("validation", validation_dict(calibrated, nominal)))
-    iso = iso_results(args, session, geometry.euler, calibrated, nominal)
+    iso = iso_results(args, session, checked)
     if args.out:
         columns, rows, ids, comment = validation_table(calibrated, nominal, calibrated.ids)
         write_table(args.out, columns, rows, ids, comment=comment, missing=True)

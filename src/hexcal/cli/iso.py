@@ -4,8 +4,9 @@ accuracy and repeatability of repeated visits).
 
 With either option the printed report adds the ISO figures, ``--json`` adds them under
 ``"iso"``, and ``--html`` writes the ISO page (the tests, the validation's summary beside them,
-the inputs) instead of the validation page. The library does the work
-(:func:`hexcal.calibration.circular_tests`, :func:`hexcal.calibration.pose_tests`); definitions
+the inputs) instead of the validation page. The library does the work and
+decides how each column takes the setup (:func:`hexcal.calibration.iso_validations`,
+:func:`hexcal.calibration.circular_tests`, :func:`hexcal.calibration.pose_tests`); definitions
 in docs/iso-tests.md. Imports only the standard library and :mod:`hexcal.cli.common` at its top.
 """
 
@@ -26,8 +27,8 @@ def iso_options(p: argparse.ArgumentParser) -> None:
         "--iso230-4",
         dest="iso230_4",
         action="store_true",
-        help="ISO 230-4 circular test of a ball-bar circle (one distance per observation; its setup "
-        "fixed): G, F, H before (--nominal) and after calibration; --html writes the ISO page",
+        help="ISO 230-4 circular test of a ball-bar circle (one distance per observation; the bar as "
+        "set up): G, F, H before (--nominal) and after calibration; --html writes the ISO page",
     )
     p.add_argument(
         "--iso9283",
@@ -41,7 +42,7 @@ def iso_options(p: argparse.ArgumentParser) -> None:
         default=VISIT_TOLERANCE,
         metavar="MM",
         help="--iso9283: observations whose six leg readings agree within MM are visits of one "
-        "commanded pose (default %(default)s)",
+        "commanded pose (default %(default)s, at most 0.1)",
     )
     p.add_argument("--polar", metavar="FILE", help="--iso230-4: save the polar plot as PNG")
 
@@ -54,30 +55,38 @@ def check_iso(args: argparse.Namespace, session: Any) -> None:
         raise CommandError("--iso230-4 (a ball bar) and --iso9283 (the pose) need different instruments")
     if args.visit_tolerance != VISIT_TOLERANCE and not args.iso9283:
         raise CommandError("--visit-tolerance groups the visits of --iso9283: give --iso9283")
-    if not args.visit_tolerance >= 0:
-        raise CommandError(f"--visit-tolerance must be >= 0, got {args.visit_tolerance}")
+    from hexcal.calibration.iso_poses import check_visit_tolerance
+
+    check_visit_tolerance(args.visit_tolerance)
     if args.iso230_4:
         from hexcal.calibration.iso_validation import check_circle_instrument
 
         check_circle_instrument(session.instrument)
 
 
-def iso_results(
-    args: argparse.Namespace, session: Any, euler: str, calibrated: Any, nominal: Any | None
-) -> dict[str, Any] | None:
-    """The ISO figures asked for (None when neither option is given), printed; the polar plot
-    written with ``--polar``."""
+def iso_validations(args: argparse.Namespace, geometry: Any, session: Any, nominal: Any | None) -> Any:
+    """The validations of the ISO test asked for (:func:`hexcal.calibration.iso_validations`),
+    None when neither option is given."""
     if not (args.iso230_4 or args.iso9283):
+        return None
+    from hexcal.calibration import iso_validations as validations
+
+    test = "iso230-4" if args.iso230_4 else "iso9283"
+    return validations(geometry, session, nominal, test=test, folds=args.folds, seed=args.seed)
+
+
+def iso_results(args: argparse.Namespace, session: Any, checked: Any) -> dict[str, Any] | None:
+    """The ISO figures of the validations (None when neither option is given), printed; the
+    polar plot written with ``--polar``."""
+    if checked is None:
         return None
     from hexcal.calibration import circular_tests, pose_tests
     from hexcal.report import iso_dict, iso_text
 
-    results = (
-        {"nominal": nominal, "calibrated": calibrated} if nominal is not None else {"geometry": calibrated}
-    )
+    results = checked.results
     circles = poses = note = None
     if args.iso230_4:
-        circles = circular_tests(session, results, euler)
+        circles = circular_tests(session, results)
     else:
         poses = pose_tests(session, results, args.visit_tolerance)
         if poses is None:
@@ -85,7 +94,7 @@ def iso_results(
             note = f"no commanded pose is visited twice (leg readings within {tol} mm): nothing to report"
     data = iso_dict(
         circles, poses, note=note, tolerance=args.visit_tolerance if args.iso9283 else None,
-        instrument=calibrated.instrument, names=list(results),
+        instrument=checked.after_result.instrument, names=list(results), after=checked.after,
     )  # fmt: skip
     print(iso_text(data))
     if args.polar:

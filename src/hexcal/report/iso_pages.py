@@ -15,7 +15,7 @@ from hexcal.report.calibration_pages import summary_rows
 from hexcal.report.figures.polar import polar_deviation
 from hexcal.report.figures.render import svg
 from hexcal.report.html import data_table, esc, figure_grid, html_page, inputs_table, section
-from hexcal.report.iso_summary import POSE_COLUMNS, circle_rows, pose_rows
+from hexcal.report.iso_summary import POSE_COLUMNS, after_text, circle_rows, pose_rows
 
 #: What the page says each figure is.
 ISO_CAPTIONS = {
@@ -31,12 +31,16 @@ CIRCLE_DEFINITIONS = (
     "G (circular deviation): radial separation of the two concentric circles, centred on the actual "
     "path's least-squares circle, that enclose it; G(b) the same over both runs.",
     "H (circular hysteresis): largest radial difference between the CW and CCW runs at one angle.",
-    "Before: the readings through the nominal model; after: what the calibrated model does not explain "
-    "(what compensation leaves, to first order).",
+    "Commanded circle: the least-squares circle of each geometry's forward kinematics of the readings, "
+    "every point commanded on it at its own angle.",
+    "Before: the readings through the nominal model, the bar's setup held as given; after: what the "
+    "calibrated model does not explain, with the bar's setup in the calibrated machine's frames "
+    "(re-registered as validate does, or the calibrated setup: stated above the table); what compensation "
+    "leaves, to first order.",
 )
 POSE_DEFINITIONS = (
     "Commanded pose: the forward kinematics of the readings through each geometry; attained pose: the "
-    "instrument's.",
+    "instrument's, its setup in the calibrated machine's frames after calibration (stated above the tables).",
     "AP (ISO 9283 pose accuracy): barycentre of the attained poses minus the commanded pose; RP_l = "
     "l̄ + 3 S_l (l_j distance to the barycentre, S_l with n - 1); RP_a = ±3 S_a per angle.",
 )
@@ -72,6 +76,9 @@ def iso_page(report: Mapping[str, Any]) -> str:
     data = report.get("iso", {})
     labels = data.get("labels", {})
     sections = []
+    after = after_text(data.get("after_setup"))
+    after = after[:1].upper() + after[1:]
+    after_note = f'<p class="muted" id="after-setup">{esc(after)}.</p>' if after else ""
     circles = data.get("iso230_4")
     if circles:
         columns = ("", *(labels.get(n, n) for n in circles))
@@ -79,7 +86,7 @@ def iso_page(report: Mapping[str, Any]) -> str:
             (label, *(None if v is None else 1e3 * v for v in values))
             for label, values in circle_rows(circles)
         ]
-        body = figure_grid(report.get("figures", {}), ISO_CAPTIONS, wide=("polar",))
+        body = figure_grid(report.get("figures", {}), ISO_CAPTIONS, wide=("polar",)) + after_note
         body += data_table(columns, rows, sortable=False, digits=4, table_id="iso230-4-table")
         sections.append(section("ISO 230-4 circular test", body, "iso230-4"))
     stats = data.get("iso9283")
@@ -94,9 +101,8 @@ def iso_page(report: Mapping[str, Any]) -> str:
             if tol
             else ""
         )
-        sections.append(
-            section("ISO 9283 pose accuracy and repeatability", "".join(tables) + note, "iso9283")
-        )
+        body = after_note + "".join(tables) + note
+        sections.append(section("ISO 9283 pose accuracy and repeatability", body, "iso9283"))
     elif data.get("iso9283_note"):
         sections.append(section("ISO 9283", f"<p>{esc(data['iso9283_note'])}</p>", "iso9283"))
     validation = report.get("validation", {})

@@ -400,8 +400,10 @@ def _registration_lines(record: dict[str, Any] | None) -> list[str]:
         return []
     quantities = record.get("quantities") or []
     kinds = sorted({q.split(".")[0] for q in quantities})
+    held = record.get("held") or []
+    kept = f"; held as given, not determined by this session: {', '.join(held)}" if held else ""
     return [
-        f"Re-registered on this session ({len(quantities)} quantities: {', '.join(kinds)}) by "
+        f"Re-registered on this session ({len(quantities)} quantities: {', '.join(kinds)}{kept}) by "
         f"{record['folds']}-fold cross-validation (seed {record['seed']}): each pose judged by frames "
         f"fitted to the other folds; the registration on all poses leaves legs at "
         f"{record['leg_rms_mm']:.3g} mm RMS ({record['noise']})"
