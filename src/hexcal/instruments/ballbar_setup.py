@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import InputError, UsageError
-from hexcal.instruments.covariates import Covariates, check_rows
+from hexcal.instruments.covariates import NO_COVARIATES, Covariates, check_rows
 
 #: Setup quantities a ballbar setup's ``fixed`` may name.
 BALLBAR_FIXABLE = ("pivot", "ball", "length")
@@ -199,7 +199,7 @@ class BallbarMeasurements:
     readings: NDArray[np.float64]
     d: NDArray[np.float64]
     ids: tuple[str, ...] = field(default=())
-    covariates: Covariates = field(default_factory=Covariates)
+    covariates: Covariates = field(default=NO_COVARIATES)
 
     def __post_init__(self) -> None:
         readings = np.array(self.readings, dtype=float)

@@ -298,10 +298,14 @@ class Covariates:
             raise InputError(f"{where} needs {' and '.join(missing)}, which the data do not have")
 
 
-def check_rows(covariates: Covariates, rows: int, what: str = "poses") -> Covariates:
+#: No covariate present: the default of every data class (immutable, so shared).
+NO_COVARIATES = Covariates()
+
+
+def check_rows(covariates: Covariates | None, rows: int, what: str = "poses") -> Covariates:
     """``covariates`` (None: none present) checked to have ``rows`` rows, for a data class."""
     if covariates is None:
-        return Covariates()
+        return NO_COVARIATES
     if not isinstance(covariates, Covariates):
         raise UsageError(f"covariates must be a Covariates, got {type(covariates).__name__}")
     if covariates and len(covariates) != rows:

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.conventions import as_poses
 from hexcal.errors import UsageError
-from hexcal.instruments.covariates import Covariates, check_rows
+from hexcal.instruments.covariates import NO_COVARIATES, Covariates, check_rows
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,7 +41,7 @@ class Measurements:
     poses: NDArray[np.float64]
     readings: NDArray[np.float64]
     ids: tuple[str, ...] = field(default=())
-    covariates: Covariates = field(default_factory=Covariates)
+    covariates: Covariates = field(default=NO_COVARIATES)
 
     def __post_init__(self) -> None:
         poses = np.array(as_poses(self.poses, "measured poses"), dtype=float)
@@ -103,7 +103,7 @@ class TargetMeasurements:
     targets: NDArray[np.float64]
     names: tuple[str, ...]
     ids: tuple[str, ...] = field(default=())
-    covariates: Covariates = field(default_factory=Covariates)
+    covariates: Covariates = field(default=NO_COVARIATES)
 
     def __post_init__(self) -> None:
         readings = np.array(self.readings, dtype=float)
