@@ -32,7 +32,7 @@ from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import UsageError
-from hexcal.instruments.covariates import Covariates
+from hexcal.instruments.covariates import NO_COVARIATES, Covariates
 
 #: The noise groups an instrument's covariance may depend on (fields of :class:`NoiseModel`).
 NOISE_FIELDS = ("position", "orientation")
@@ -87,7 +87,7 @@ class MeasurementModel(ABC):
         """The observations' covariates (time, leg temperatures, payload): ``data.covariates``,
         none present for data that carry none."""
         found = getattr(data, "covariates", None)
-        return Covariates() if found is None else found
+        return NO_COVARIATES if found is None else found
 
     def subset(self, data: Any, index: NDArray[np.intp]) -> Any:
         """The observations at ``index``."""

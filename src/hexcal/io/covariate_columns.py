@@ -14,7 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from hexcal.errors import InputError, UsageError
-from hexcal.instruments.covariates import TIME_COLUMN, Covariates, check_columns, value_problem
+from hexcal.instruments.covariates import NO_COVARIATES, TIME_COLUMN, Covariates, check_columns, value_problem
 from hexcal.io.tables import Table
 
 #: Lines named in a message beside the first one refused.
@@ -43,7 +43,7 @@ def table_covariates(
     """
     names = covariate_columns(table) if columns is None else tuple(columns)
     if not names:
-        return Covariates()
+        return NO_COVARIATES
     values = table.numbers(names)
     for k, name in enumerate(names):
         column = values[:, k]

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning
-from hexcal.instruments.covariates import Covariates
+from hexcal.instruments.covariates import NO_COVARIATES, Covariates
 from hexcal.instruments.pose import Measurements
 from hexcal.io.covariate_columns import BlockCovariates, covariate_columns, table_covariates
 from hexcal.io.inputs import DEFAULT_MAX_ROWS, MEASUREMENT_MAX_ROWS
@@ -195,7 +195,7 @@ class LegData:
     ) -> None:
         self._lengths, self.readings, self.ids, self._table = lengths, readings, ids, table
         self.has_lengths = lengths is not None or table is not None
-        self.covariates = Covariates() if covariates is None else covariates
+        self.covariates = NO_COVARIATES if covariates is None else covariates
 
     @property
     def lengths(self) -> NDArray[np.float64] | None:
