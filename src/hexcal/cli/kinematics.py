@@ -7,6 +7,7 @@ imports the library parts it needs when it runs (``hexcal ik`` never loads scipy
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterator
 from typing import Any
 
 from hexcal.cli.common import (
@@ -31,14 +32,20 @@ def cmd_preset(args: argparse.Namespace) -> None:
     print(f"wrote preset {args.name} to {args.out}")
 
 
+def _first_then(first: list[Any], rest: Iterator[Any]) -> Iterator[Any]:
+    """The block of ``first`` (a block read ahead, for its columns; let go once given, so that
+    memory holds one block at a time), then the blocks of ``rest``."""
+    while first:
+        yield first.pop()
+    yield from rest
+
+
 def cmd_ik(args: argparse.Namespace) -> None:
     """Leg lengths and readings of the poses of a file, block by block (bounded memory).
 
     Warns of poses beyond the leg limits; ``--out -`` writes the table to standard output.
     The covariate columns of the poses (time, leg temperatures, payload) are carried along.
     """
-    import itertools
-
     import numpy as np
 
     from hexcal.core import inverse_kinematics, is_feasible, leg_readings
@@ -49,12 +56,12 @@ def cmd_ik(args: argparse.Namespace) -> None:
     outside = 0
 
     read = iter_poses(args.poses, geometry.euler, **table_reading(args), covariates=True)
-    first = next(read)  # its covariate columns are the file's
-    extra = tuple(first[2].to_columns())
+    first = [next(read)]  # its covariate columns are the file's
+    extra = tuple(first[0][2].to_columns())
 
     def blocks() -> Any:
         nonlocal outside
-        for poses, ids, covariates in itertools.chain([first], read):
+        for poses, ids, covariates in _first_then(first, read):
             lengths = inverse_kinematics(geometry, poses)
             feasible = is_feasible(geometry, poses, margin=1e-6)
             if not feasible.all():
@@ -75,8 +82,6 @@ def cmd_ik(args: argparse.Namespace) -> None:
 def cmd_fk(args: argparse.Namespace) -> None:
     """Poses of the leg lengths (or readings) of a file, by forward kinematics, block by block
     (the covariate columns of the legs carried along)."""
-    import itertools
-
     import numpy as np
 
     from hexcal.core import forward_kinematics, leg_lengths, leg_limit_violations, pose_jacobian_from_arrays
@@ -93,13 +98,13 @@ def cmd_fk(args: argparse.Namespace) -> None:
         home_step = np.linalg.inv(home_jacobian)
     stats = {"rows": 0, "residual": 0.0, "iterations": 0}
     read = iter_legs(args.legs, **table_reading(args))
-    first = next(read)  # its covariate columns are the file's
-    extra = tuple(first.covariates.to_columns())
+    first = [next(read)]  # its covariate columns are the file's
+    extra = tuple(first[0].covariates.to_columns())
 
     def blocks() -> Any:
         pending = np.empty((0, 6))
         warned = False
-        for legs in itertools.chain([first], read):
+        for legs in _first_then(first, read):
             if legs.readings is not None:  # the controller's readings, through l0 and the gains
                 if legs.has_lengths and not warned:  # the lengths stay unconverted
                     warn(
