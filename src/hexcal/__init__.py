@@ -41,9 +41,10 @@ Public names
 - ``Setup``, ``load_setup``, ``save_setup``, ``instrument_for``, ``MeasurementModel``,
   ``FullPoseModel``, ``ToolModel``, ``TargetModel``: instruments and their setup files.
 - ``Session``, ``read_session``, ``read_sessions``, ``write_session_data``, ``Measurements``,
-  ``TargetMeasurements``, ``read_measurements``, ``write_measurements``,
+  ``TargetMeasurements``, ``Covariates``, ``read_measurements``, ``write_measurements``,
   ``read_target_measurements``, ``write_target_measurements``, ``read_tool_measurements``:
-  measurement sessions and their files (docs/formats.md "Sessions").
+  measurement sessions and their files (docs/formats.md "Sessions"); the covariates of their
+  rows (time, leg temperatures, payload).
 - ``read_poses``, ``write_poses``, ``read_legs``, ``write_legs``: pose and leg files.
 - ``calibrate``, ``Calibration``: the calibration workflow (noise, leg model, outliers, the
   verdict, splits, predicted accuracy) and its result, reports and file.
@@ -118,6 +119,7 @@ _PUBLIC = {
     "compensate": "core",
     "Measurements": "instruments",
     "TargetMeasurements": "instruments",
+    "Covariates": "instruments",
     "MeasurementModel": "instruments",
     "FullPoseModel": "instruments",
     "ToolModel": "instruments",

@@ -263,10 +263,12 @@ def cmd_synthesize(args: argparse.Namespace) -> None:
     instrument = load_instrument(args.setup, nominal.euler)
     if instrument.unregistered:
         raise CommandError(f"{args.setup}: simulation needs the true instrument frame, not auto")
-    poses, ids = read_poses(args.poses, nominal.euler, **table_reading(args))
+    poses, ids, covariates = read_poses(args.poses, nominal.euler, **table_reading(args), covariates=True)
     noise = parse_noise(args.noise, args.noise_dist)
     options = {"missing_rate": args.missing_rate} if args.missing_rate else {}
-    session = simulate_session(nominal, true, instrument, poses, noise, args.seed, tuple(ids), **options)
+    session = simulate_session(
+        nominal, true, instrument, poses, noise, args.seed, tuple(ids), covariates, **options
+    )
     comment = f"simulated: nominal {args.nominal}, true {args.true}, seed {args.seed}, noise {noise}"
     comment += "".join(f", {label} {value}" for label, value in _given(setup=args.setup).items())
     comment += f", missing rate {args.missing_rate:g}" if args.missing_rate else ""

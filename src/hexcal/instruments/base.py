@@ -32,6 +32,7 @@ from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import UsageError
+from hexcal.instruments.covariates import NO_COVARIATES, Covariates
 from hexcal.instruments.known_noise import Device, device_for
 
 #: The noise groups an instrument's covariance may depend on (fields of :class:`NoiseModel`).
@@ -82,6 +83,12 @@ class MeasurementModel(ABC):
     def ids(self, data: Any) -> tuple[str, ...]:
         """Observation labels."""
         return tuple(data.ids)
+
+    def covariates(self, data: Any) -> Covariates:
+        """The observations' covariates (time, leg temperatures, payload): ``data.covariates``,
+        none present for data that carry none."""
+        found = getattr(data, "covariates", None)
+        return NO_COVARIATES if found is None else found
 
     def subset(self, data: Any, index: NDArray[np.intp]) -> Any:
         """The observations at ``index``."""
