@@ -209,6 +209,26 @@ def test_warming_legs_are_called_a_drift():
     assert np.all(grown > 0.03) and np.all(grown < 0.3)  # grew 0.075-0.15 mm: sign and size
 
 
+def test_a_drift_in_time_is_seen_in_the_time_column():
+    # 60 poses, the first 40 in 10 minutes, the last 20 over the next 50 (a pause, the machine
+    # warming on): the legs grow with time, not with the row. With the time column the drift's
+    # regressor is the right one and explains more of the residuals than the row order does.
+    from hexcal.instruments.covariates import Covariates
+
+    time = np.concatenate([np.linspace(0, 600, 40), np.linspace(700, 3600, 20)])
+    session = campaign(seed=6)
+    growth = np.random.default_rng(6).uniform(0.5, 1.0, 6) * 0.15
+    readings = session.data.readings - (time / time[-1])[:, None] * growth / TRUE.leg_gains
+    in_rows = session.replace(data=session.data.replace(readings=readings))
+    in_time = in_rows.replace(data=in_rows.data.replace(covariates=Covariates(time=time)))
+    found = {}
+    for name, s in (("rows", in_rows), ("time", in_time)):
+        result = estimate(NOMINAL, [s])
+        found[name] = next(r for r in result.verdict.reasons if r.code in ("drift", "step"))
+    assert found["time"].code == "drift" and found["time"].data["family"] == "legs"
+    assert found["time"].data["explained"] > found["rows"].data["explained"]
+
+
 @pytest.mark.parametrize("seed", [3, 4])
 def test_clean_campaigns_have_no_step_and_no_drift(seed):
     result = estimate(NOMINAL, [campaign(m=40, seed=seed)])
