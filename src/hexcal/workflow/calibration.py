@@ -27,6 +27,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -169,7 +170,11 @@ class Calibration:
     # -- reports and files ------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """The one schema every report renders (text, JSON, HTML): ``hexcal identify --json``
-        writes exactly this."""
+        writes exactly this. Built once (the reports share it: do not change it in place)."""
+        return self._dict
+
+    @cached_property
+    def _dict(self) -> dict[str, Any]:
         from hexcal.report import calibration_dict
 
         return calibration_dict(self)
