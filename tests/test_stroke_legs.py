@@ -2,6 +2,9 @@
 
 - the model: its Jacobian and slope against central differences, its inverse (readings of
   lengths) against its lengths, one clear error where it is not invertible on the stroke;
+- beyond the stroke: the curve held at its end value (each leg the straight line of its gain
+  through the curve's end point, continuous at the ends), the inverse exact and increasing far
+  beyond, and :func:`stroke_excess`'s figures of readings beyond the stroke;
 - the geometry file's ``leg_model:`` key: written, read back exactly, refused when wrong, and a
   file without it read as linear legs;
 - kinematics: inverse and forward kinematics and compensation of a stroke machine agree;
@@ -29,7 +32,7 @@ from hexcal.core import NoiseModel, preset, random_poses
 from hexcal.core.compensation import compensate
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
 from hexcal.core.legs import LEG_MODELS, LinearLegs
-from hexcal.core.stroke_legs import StrokeLegs, with_leg_model
+from hexcal.core.stroke_legs import StrokeLegs, stroke_excess, with_leg_model
 from hexcal.errors import GeometryError, InputError, UsageError
 from hexcal.instruments import FullPoseModel, Session
 from hexcal.io import load_geometry, save_geometry
@@ -80,6 +83,78 @@ def test_inverse_round_trip_and_refusal():
     bent[12 + 6 + 3] = 200.0  # slope 1 - 200 * 1.5 * 2 / 300 < 0 mid-stroke: leg 4 turns back
     with pytest.raises(GeometryError, match="leg 4: the stroke model's length does not grow"):
         legs.readings(bent, np.full((1, 6), 800.0))
+
+
+def test_beyond_the_stroke_the_curve_is_held():
+    rng = np.random.default_rng(5)
+    legs = StrokeLegs(4, LOW, HIGH)
+    block = stroke_block(rng, legs)
+    theta = legs.thetas(block)
+    l0, gain = block[:6], block[6:12]
+    at_low, at_high = legs.lengths(block, LOW[None])[0], legs.lengths(block, HIGH[None])[0]
+    # the curve's own value at the ends: the series at x = -1 and 1, P_k(±1) = (±1)^k
+    signs = np.array([[(-1.0) ** k, 1.0] for k in range(2, 5)])  # (terms, end)
+    curve = block[12:].reshape(3, 6)
+    np.testing.assert_allclose(at_low, l0 + gain * LOW + (signs[:, 0:1] * curve).sum(axis=0), atol=1e-12)
+    np.testing.assert_allclose(at_high, l0 + gain * HIGH + curve.sum(axis=0), atol=1e-12)
+    far = np.array([-1e4, -50.0, 99.0, 401.0, 1e3, 1e5])[:, None] * np.ones(6)
+    lengths = legs.lengths(block, far)
+    end = np.where(far < LOW, at_low, at_high)
+    np.testing.assert_allclose(lengths, end + gain * (far - np.where(far < LOW, LOW, HIGH)), rtol=1e-13)
+    np.testing.assert_allclose(legs.slope(theta, far), np.broadcast_to(gain, far.shape))
+    # continuous at the ends: a step of 1e-9 changes the length by about the slope times it
+    for edge in (LOW, HIGH):
+        gap = legs.lengths(block, edge[None] + 1e-9) - legs.lengths(block, edge[None] - 1e-9)
+        assert np.all(np.abs(gap) < 1e-8)
+    # the Jacobian beyond: the end values of P_k, constant
+    out = np.array([[50.0] * 6, [450.0] * 6])
+    jac = legs.length_jacobian(theta, out)
+    np.testing.assert_allclose(jac[0, :, 2:], np.broadcast_to(signs[:, 0], (6, 3)))
+    np.testing.assert_allclose(jac[1, :, 2:], 1.0)
+
+
+def test_the_inverse_exists_and_increases_far_beyond_the_stroke():
+    rng = np.random.default_rng(6)
+    legs = StrokeLegs(6, LOW, HIGH)
+    block = stroke_block(rng, legs)
+    dl = np.linspace(-2000.0, 3000.0, 1001)[:, None] + rng.uniform(0, 1, 6)
+    back = legs.readings(block, legs.lengths(block, dl))
+    np.testing.assert_allclose(back, dl, rtol=0, atol=1e-9)
+    assert np.all(np.diff(back, axis=0) > 0)
+    # the issue's failure: a cubic that grows along its stroke (slope 1 - 20 P_3'(x) / 150 is
+    # 0.2 to 1.2 there) but whose polynomial turns back soon past it (P_3'(1.3) = 11.2): held,
+    # it continues with its gain
+    steep = np.concatenate([np.full(6, 600.0), np.ones(6), np.zeros(6), np.full(6, -20.0)])
+    assert np.all(legs_slope_polynomial(steep, 1.3) < 0)
+    three = StrokeLegs(3, LOW, HIGH)
+    wanted = three.lengths(steep, HIGH[None])[0] + 100.0
+    np.testing.assert_allclose(three.readings(steep, wanted[None])[0], HIGH + 100.0, rtol=1e-13)
+
+
+def legs_slope_polynomial(block: np.ndarray, x: float) -> np.ndarray:
+    """The slope of the degree-3 polynomial itself (not held) at ``x`` beyond the stroke."""
+    p3_slope = 0.5 * (15 * x**2 - 3)  # P_3'(x)
+    return block[6:12] + block[18:24] * p3_slope * 2 / (HIGH - LOW)
+
+
+def test_stroke_excess_figures_and_warning():
+    geometry = with_leg_model(preset("paper-hmt"), StrokeLegs(3, LOW, HIGH))
+    dl = np.full((5, 6), 250.0)
+    dl[1, 2] = 410.0  # 10 above: 3.3 % of the stroke, within the 5 % margin
+    dl[3, 4] = 70.0  # 30 below: 10 %
+    dl[4, 0] = np.nan
+    excess = stroke_excess(geometry, dl, ids=[f"p{k}" for k in range(5)])
+    assert (excess.rows, excess.beyond_rows, excess.flagged_rows) == (5, 2, 1)
+    assert excess.ids == ("p3",) and excess.beyond.tolist() == [0, 0, 1, 0, 1, 0]
+    np.testing.assert_allclose(excess.share, [0, 0, 10 / 300, 0, 0.1, 0])
+    line = excess.warning("target(s)")
+    assert line.startswith("1 of 5 target(s) (p3) take a leg beyond its calibrated stroke by more than 5%")
+    assert "leg 5 to 30 below [100, 400] (10% of its stroke, 30 mm)" in line and "leg 3" not in line
+    both = excess.merge(stroke_excess(geometry, dl[:2], margin=0.05))
+    assert (both.rows, both.beyond_rows, both.flagged_rows) == (7, 3, 1)
+    assert stroke_excess(geometry, dl[:1]).warning() is None
+    assert stroke_excess(preset("paper-hmt"), dl) is None  # linear legs: no stroke
+    assert excess.to_dict()["largest_share_of_stroke"] == pytest.approx(0.1)
 
 
 def stroke_machine(seed: int = 3) -> tuple:
