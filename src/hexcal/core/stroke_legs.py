@@ -259,20 +259,22 @@ def _six(value: Any, what: str) -> NDArray[np.float64]:
 
 
 def stroke_of(geometry: Any, readings: ArrayLike | None = None) -> tuple[NDArray, NDArray]:
-    """Each leg's stroke in readings: from the geometry's leg length limits when it has them
-    (``(limit - l0) / g``), else the range of ``readings (m, 6)``; :class:`GeometryError` if
-    neither gives a stroke."""
+    """Each leg's stroke in readings: the range of ``readings (m, 6)`` when given (the stroke a
+    campaign covered, over which its curve is determined: beyond it the model holds its curve),
+    else, before any reading (planning), from the geometry's leg length limits
+    (``(limit - l0) / g``); :class:`GeometryError` if neither gives a stroke."""
+    if readings is not None and np.size(readings):
+        dl = np.asarray(readings, dtype=float).reshape(-1, N_LEGS)
+        low, high = np.nanmin(dl, axis=0), np.nanmax(dl, axis=0)
+        flat = np.flatnonzero(~(high > low))
+        if flat.size:
+            leg = int(flat[0]) + 1
+            raise GeometryError(f"leg {leg}: its readings do not move, so they give it no stroke")
+        return low, high
     if geometry.leg_length_limits is not None:
         ends = (geometry.leg_length_limits[:, None] - geometry.initial_leg_lengths) / geometry.leg_gains
         return ends.min(axis=0), ends.max(axis=0)
-    if readings is None or np.size(readings) == 0:
-        raise GeometryError("the stroke model needs each leg's stroke: give leg_length_limits or readings")
-    dl = np.asarray(readings, dtype=float).reshape(-1, N_LEGS)
-    low, high = np.nanmin(dl, axis=0), np.nanmax(dl, axis=0)
-    flat = np.flatnonzero(~(high > low))
-    if flat.size:
-        raise GeometryError(f"leg {int(flat[0]) + 1}: its readings do not move, so they give it no stroke")
-    return low, high
+    raise GeometryError("the stroke model needs each leg's stroke: give leg_length_limits or readings")
 
 
 @dataclass(frozen=True)
@@ -355,8 +357,8 @@ class StrokeExcess:
         }
 
     def legs_text(self) -> str:
-        """Each leg beyond its stroke and by how much, e.g. ``leg 3 to 0.42 above [1.28, 3.26]
-        (20 % of its stroke, 30.4 mm)``; the legs beyond the margin, else all beyond."""
+        """Each leg beyond its stroke and by how much, e.g. ``leg 3 up to 0.42 above its stroke
+        [1.28, 3.26] (20% of it, 30.4 mm)``; the legs beyond the margin, else all beyond."""
         share = self.share
         legs = np.flatnonzero(share > self.margin)
         if not legs.size:
@@ -366,8 +368,8 @@ class StrokeExcess:
             up = self.above[leg] >= self.below[leg]
             side, amount = ("above", self.above[leg]) if up else ("below", self.below[leg])
             parts.append(
-                f"leg {leg + 1} to {amount:.3g} {side} [{self.low[leg]:.4g}, {self.high[leg]:.4g}] "
-                f"({share[leg]:.0%} of its stroke, {amount * self.gains[leg]:.3g} mm)"
+                f"leg {leg + 1} up to {amount:.3g} {side} its stroke [{self.low[leg]:.4g}, "
+                f"{self.high[leg]:.4g}] ({share[leg]:.0%} of it, {amount * self.gains[leg]:.3g} mm)"
             )
         return "; ".join(parts)
 
