@@ -271,8 +271,8 @@ def test_end_folds_hold_out_each_legs_ends(stroke_session):
     _, session = stroke_session
     readings = session.instrument.readings(session.data)
     splits = _end_splits([session], 5)
-    assert len(splits) == 6 and all(kind == "ends" for *_, kind in splits)
-    for leg, (train, held, _) in enumerate(splits):
+    assert len(splits) == 6 and all(split.kind == "ends" and split.parents == (0,) for split in splits)
+    for leg, (train, held, *_) in enumerate(splits):
         out = held[0].instrument.readings(held[0].data)[:, leg]
         inside = train[0].instrument.readings(train[0].data)[:, leg]
         assert len(out) == 24 and len(inside) == 96
@@ -407,3 +407,19 @@ def test_commands_warn_beyond_the_calibrated_stroke(capsys, tmp_path):
     assert "stroke" not in run(
         "ik", "--geometry", g, "--poses", tmp_path / "in.csv", "--out", tmp_path / "i.csv"
     )
+
+
+def test_each_fold_fits_with_its_sessions_noise(stroke_session):
+    """The folds' fits take each training session's noise: given, one for all or one per
+    session (a count that does not match is refused), or learned once from all the sessions."""
+    from hexcal.calibration.leg_model_choice import _session_noises
+
+    nominal, session = stroke_session
+    other = NoiseModel(leg=0.01, position=0.01, orientation=1e-5, distribution="normal")
+    assert _session_noises("linear", nominal, [session, session], "ml", None, (), NOISE) == [NOISE, NOISE]
+    assert _session_noises("linear", nominal, [session, session], "ml", None, (), [NOISE, other])[1] is other
+    with pytest.raises(UsageError, match="2 noise models for 1 sessions"):
+        _session_noises("linear", nominal, [session], "ml", None, (), [NOISE, other])
+    learned = _session_noises("stroke:3", nominal, [session], "ml", "joints,l0,gains", (), "auto")
+    # the simulated noise (0.005 mm legs) within a fifth, from 120 poses
+    assert len(learned) == 1 and abs(learned[0].sigmas[0] / 0.005 - 1) < 0.2

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -181,17 +181,23 @@ class LegModelChoice:
         return out
 
 
-#: A split: the training sessions, the held-out sessions, and the kind of part.
-Split = tuple[list[Session], list[Session], str]
+class Split(NamedTuple):
+    """A fit and what it predicts: the training sessions (``parents``: the index of each in
+    the sessions given), the held-out sessions and the kind of part (``within``, ``ends``)."""
+
+    train: list[Session]
+    held: list[Session]
+    kind: str
+    parents: tuple[int, ...]
 
 
 def _splits(sessions: Sequence[Session], folds: int, seed: int) -> tuple[str, list[Split]]:
-    """The within scheme and its ``(training sessions, held-out sessions, "within")``."""
+    """The within scheme and its splits."""
     if len(sessions) > 1:
-        pairs = [
-            ([s for j, s in enumerate(sessions) if j != k], [held], "within")
-            for k, held in enumerate(sessions)
-        ]
+        pairs = []
+        for k, held in enumerate(sessions):
+            others = [j for j in range(len(sessions)) if j != k]
+            pairs.append(Split([sessions[j] for j in others], [held], "within", tuple(others)))
         return "leave-one-session-out", pairs
     if folds < 2:
         raise UsageError(f"folds must be at least 2, got {folds}")
@@ -199,7 +205,12 @@ def _splits(sessions: Sequence[Session], folds: int, seed: int) -> tuple[str, li
     folds = _pose_folds(session, folds)
     fold = np.random.default_rng(seed).permutation(len(session)) % folds
     pairs = [
-        ([session.subset(np.flatnonzero(fold != f))], [session.subset(np.flatnonzero(fold == f))], "within")
+        Split(
+            [session.subset(np.flatnonzero(fold != f))],
+            [session.subset(np.flatnonzero(fold == f))],
+            "within",
+            (0,),
+        )
         for f in range(folds)
     ]
     return f"{folds}-fold over poses", pairs
@@ -229,16 +240,17 @@ def _end_splits(sessions: Sequence[Session], folds: int) -> list[Split]:
         if key in seen:
             continue
         seen.add(key)
-        train, judged = [], []
+        train, judged, parents = [], [], []
         for j, session in enumerate(sessions):
             mine = owner == j
             keep, out_j = local[mine & ~held], local[mine & held]
             if len(keep):
                 train.append(session.subset(keep))
+                parents.append(j)
             if len(out_j) and _enough_to_register(session, len(out_j), folds):
                 judged.append(session.subset(out_j))
         if train and judged:
-            out.append((train, judged, "ends"))
+            out.append(Split(train, judged, "ends", tuple(parents)))
     return out
 
 
@@ -312,17 +324,20 @@ def choose_leg_model(
             splits += end_splits
             scheme += f" and the stroke's ends ({len(end_splits)} parts)"
     beyond = _beyond(start, splits)
-    kinds = np.array([kind for _train, held, kind in splits for _session in held])
+    kinds = np.array([split.kind for split in splits for _ in split.held])
     scores: dict[str, dict[str, Any]] = {}
     parts: dict[str, np.ndarray] = {}
     for spec in candidates:
         legs, positions, angles, part_mse = [], [], [], []
         n_free = 0
-        for train, held, _ in splits:
+        noises = _session_noises(spec, start, sessions, method, fit, fix, noise)
+        for train, held, _, parents in splits:
             geometry = start_for(spec, start, train)  # the stroke of the training poses
             groups = fit_for(fit, geometry.leg_model)
+            own = [noises[j] for j in parents]
+            own = own[0] if len(own) == 1 or any(n is None for n in own) else own
             result = estimate(
-                geometry, train, method, noise=noise, fit=groups, fix=fix, with_bound=False, verdict=False
+                geometry, train, method, noise=own, fit=groups, fix=fix, with_bound=False, verdict=False
             )
             n_free = int(sum(n in set(geometry.machine_names()) for n in result.names))
             for session in held:
@@ -348,11 +363,40 @@ def choose_leg_model(
     return LegModelChoice(_decide(scores, parts), scheme, scores, folds, seed, beyond)
 
 
+def _session_noises(
+    spec: str,
+    start: Geometry,
+    sessions: list[Session],
+    method: str,
+    fit: Any,
+    fix: Iterable[str],
+    noise: Any,
+) -> list[Any]:
+    """Each session's noise model for the candidate's fits: given (one for all, or one per
+    session), or, for ``auto``, learned once from all the sessions with the candidate (an
+    estimate of the noise in every fold cost eight times the fit; the noise only weighs the
+    kinds of residual against each other)."""
+    from hexcal.calibration.identify import AUTO, estimate
+
+    if isinstance(noise, str) and noise == AUTO:
+        geometry = start_for(spec, start, sessions)
+        groups = fit_for(fit, geometry.leg_model)
+        whole = estimate(
+            geometry, sessions, method, noise=AUTO, fit=groups, fix=fix, with_bound=False, verdict=False
+        )
+        return list(whole.noises) if len(whole.noises) == len(sessions) else [whole.noise] * len(sessions)
+    if isinstance(noise, Sequence) and not isinstance(noise, str):
+        if len(noise) != len(sessions):
+            raise UsageError(f"choose_leg_model: {len(noise)} noise models for {len(sessions)} sessions")
+        return list(noise)
+    return [noise] * len(sessions)
+
+
 def _beyond(start: Geometry, splits: list[Split]) -> dict[str, dict[str, Any]]:
     """Per kind of part, how much of the held-out readings lies beyond the stroke of the
     training poses (:func:`stroke_of`)."""
     out: dict[str, StrokeExcess] = {}
-    for train, held, kind in splits:
+    for train, held, kind, _ in splits:
         readings = np.concatenate([s.instrument.readings(s.data) for s in train])
         low, high = stroke_of(start, readings)
         probe = with_leg_model(start, StrokeLegs(2, low, high))
