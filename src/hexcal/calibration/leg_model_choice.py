@@ -22,11 +22,13 @@ the geometry's leg length limits, :func:`hexcal.core.stroke_legs.stroke_of`) and
   whose held-out poses are the same are one part; a session's held-out poses too few to
   re-register its instrument are left out of the training and not judged.
 
-Every fit's stroke is that of its training poses (:func:`start_for`). Each held-out part is
-judged by :func:`hexcal.calibration.validate` (which re-registers an instrument's free frame
-and tool on the held-out data by its own cross-validation, so that a frame fitted with the
-machine does not carry the fit's errors over); the score is the held-out leg RMS (mm), pooled
-over all the parts. A candidate that predicts the stroke's ends worse than the simplest
+Every fit's stroke is that of its training poses (:func:`start_for`); a noise learned from the
+data is learned once per candidate from all the sessions and held in its fits (it weighs the
+kinds of residual against each other; learning it in each fold cost eight times the fit). Each
+held-out part is judged by :func:`hexcal.calibration.validate` (which re-registers an
+instrument's free frame and tool on the held-out data by its own cross-validation, so that a
+frame fitted with the machine does not carry the fit's errors over); the score is the held-out
+leg RMS (mm), pooled over all the parts. A candidate that predicts the stroke's ends worse than the simplest
 candidate (linear legs: pooled held-out leg MSE of those parts above its) is not chosen: a
 curve must not make the machine worse where the campaign did not measure. Among the others the
 choice is the least score, a tie going to the simpler one (the order of :data:`CANDIDATES`): a
@@ -296,7 +298,9 @@ def choose_leg_model(
     candidates : iterable of str
         ``--leg-model`` values, simplest first (default :data:`CANDIDATES`).
     method, fit, fix, noise
-        As :func:`hexcal.calibration.estimate` (the model's own group is added to ``fit``).
+        As :func:`hexcal.calibration.estimate` (the model's own group is added to ``fit``);
+        a noise learned from the data (``"auto"``) is learned once per candidate from all the
+        sessions and held in its folds.
     folds, seed : int
         The folds over the poses of a single session and their seed; also the folds of the
         re-registration of a free instrument in each validation.
