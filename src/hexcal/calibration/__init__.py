@@ -21,6 +21,8 @@ Public names
 - ``diagnose``, ``Quality``: the likely cause of a bad fit (degrees, gains, Euler sequence...).
 - ``predicted_pose_accuracy``, ``predicted_pose_errors``, ``pose_error_map``: the predicted
   pose accuracy after calibration.
+- ``poses_stroke_excess``, ``workspace_stroke_excess``: how far poses, or the workspace box,
+  take legs beyond a stroke leg model's calibrated stroke (where it holds its curve).
 - ``circular_test``, ``CircularTest``, ``pose_statistics``, ``PoseStatistics``,
   ``repeated_visits``: the ISO 230-4 circular test and the ISO 9283 pose accuracy and
   repeatability (docs/iso-tests.md); ``iso_validations``, ``IsoValidations``: the
@@ -73,12 +75,14 @@ _NAMES = {
     "machine_size": "verdict",
     "parameter_limits": "verdict",
     "pose_error_map": "accuracy",
+    "poses_stroke_excess": "accuracy",
     "predicted_pose_accuracy": "accuracy",
     "predicted_pose_errors": "accuracy",
     "register_sessions": "identify",
     "rotation_vector_map": "accuracy",
     "undetermined": "verdict",
     "validate": "validation",
+    "workspace_stroke_excess": "accuracy",
 }
 
 __all__ = [
@@ -107,6 +111,7 @@ __all__ = [
     "pose_error_map",
     "pose_statistics",
     "pose_tests",
+    "poses_stroke_excess",
     "predicted_pose_accuracy",
     "predicted_pose_errors",
     "reference_noises",
@@ -114,6 +119,7 @@ __all__ = [
     "sequence_findings",
     "split_sessions",
     "validate",
+    "workspace_stroke_excess",
 ]
 
 __getattr__, _dir, _names = attach(__name__, _NAMES)

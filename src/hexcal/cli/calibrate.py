@@ -194,8 +194,10 @@ def _split_option(values: list[str] | None) -> Any:
 
 
 def cmd_validate(args: argparse.Namespace) -> None:
-    """Prediction errors of a calibration (and optionally the nominal geometry) on held-out data."""
+    """Prediction errors of a calibration (and optionally the nominal geometry) on held-out data;
+    warns of readings beyond a stroke model's calibrated stroke."""
     from hexcal.calibration import validate
+    from hexcal.core import stroke_excess
     from hexcal.io import write_table
     from hexcal.report import render, validation_dict, validation_json, validation_table
 
@@ -223,6 +225,9 @@ def cmd_validate(args: argparse.Namespace) -> None:
             check_nominal_setup(session.instrument, calibrated)
             nominal = validate(nominal_geometry, session, **options)
     print(render("validation", validation_dict(calibrated, nominal)))
+    beyond = stroke_excess(geometry, session.instrument.readings(session.data), ids=calibrated.ids)
+    if beyond is not None and (line := beyond.warning("pose(s) of the session")):
+        warn(f"hexcal: warning: {line}")
     iso = iso_results(args, session, checked)
     if args.out:
         columns, rows, ids, comment = validation_table(calibrated, nominal, calibrated.ids)
@@ -232,11 +237,10 @@ def cmd_validate(args: argparse.Namespace) -> None:
         from hexcal.io import atomic_write
 
         with atomic_write(args.json) as fh:
-            fh.write(
-                render(
-                    "validation", validation_json(calibrated, nominal) | ({"iso": iso} if iso else {}), "json"
-                )
-            )
+            record = validation_json(calibrated, nominal) | ({"iso": iso} if iso else {})
+            if beyond is not None:
+                record["beyond_stroke"] = beyond.to_dict()
+            fh.write(render("validation", record, "json"))
         print(f"wrote the JSON summary to {args.json}")
     if args.html:
         from hexcal.io import atomic_write

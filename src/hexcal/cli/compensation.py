@@ -43,7 +43,7 @@ def cmd_compensate(args: argparse.Namespace) -> None:
     if args.gcode:
         _compensate_program(args)
         return
-    from hexcal.core import compensate
+    from hexcal.core import compensate, stroke_excess
     from hexcal.io import read_table, table_covariates, table_poses, write_legs
 
     check_outputs(args.out, args.corrected_poses)
@@ -70,6 +70,9 @@ def cmd_compensate(args: argparse.Namespace) -> None:
         lengths, readings = lengths[keep], readings[keep]
     covariates = covariates.subset(keep)  # carried from the targets to the commands
     write_legs(args.out, lengths, readings, kept_ids, covariates=covariates)
+    beyond = stroke_excess(geometry, readings, ids=kept_ids)
+    if beyond is not None and (line := beyond.warning("target(s)")):
+        warn(f"hexcal: warning: {line}")
     if args.corrected_poses and comp.corrected_poses is not None:
         corrected = comp.corrected_poses[keep]
         _write_poses_like(table, args.corrected_poses, corrected, kept_ids, geometry.euler, covariates)
@@ -228,6 +231,7 @@ def _compensate_program(args: argparse.Namespace) -> None:
     import os
     from importlib.metadata import version
 
+    from hexcal.calibration import poses_stroke_excess
     from hexcal.core import PathError, correct_path, correct_poses
     from hexcal.errors import InputError
     from hexcal.io import atomic_write, gcode
@@ -260,6 +264,7 @@ def _compensate_program(args: argparse.Namespace) -> None:
     began, shown, moves, points, lines = time.perf_counter(), 0, 0, 0, 0
     worst = [0.0, 0.0]
     targets_out, corrected_out = _Lines(), _Lines()
+    beyond = None
     last = start_corrected
     with atomic_write(args.out) as fh:
         writer = gcode.ProgramWriter(fh, header, decimals, start_corrected)
@@ -275,6 +280,8 @@ def _compensate_program(args: argparse.Namespace) -> None:
             numbers = (block.first_line + block.move_lines).tolist()
             targets_out.add([numbers[k] for k in _outside_box(geometry, block.moves.end)])
             corrected_out.add(sorted({numbers[path.move[k]] for k in _outside_box(geometry, path.corrected)}))
+            part = poses_stroke_excess(geometry, block.moves.end, ids=[f"line {n}" for n in numbers])
+            beyond = part if beyond is None or part is None else beyond.merge(part)
             moves, points, lines = moves + len(block.moves), points + len(path.move), lines + len(block.lines)
             worst = [max(worst[0], path.position), max(worst[1], path.orientation)]
             if not args.quiet and (block.chars * 10 // size > shown or block.chars >= size):
@@ -284,6 +291,8 @@ def _compensate_program(args: argparse.Namespace) -> None:
                 print(note, file=sys.stderr, flush=True)
     targets_out.warn("target(s) of the program")
     corrected_out.warn("corrected move(s)")
+    if beyond is not None and (line := beyond.warning("target(s) of the program")):
+        warn(f"hexcal: warning: {line}")
     print(
         f"wrote {args.out}: {lines:,} lines read, {moves:,} moves corrected as {points:,} "
         f"({points - moves:,} added to follow the path); largest deviation at the checked midpoints "

@@ -43,24 +43,26 @@ def _first_then(first: list[Any], rest: Iterator[Any]) -> Iterator[Any]:
 def cmd_ik(args: argparse.Namespace) -> None:
     """Leg lengths and readings of the poses of a file, block by block (bounded memory).
 
-    Warns of poses beyond the leg limits; ``--out -`` writes the table to standard output.
-    The covariate columns of the poses (time, leg temperatures, payload) are carried along.
+    Warns of poses beyond the leg limits, and beyond a stroke model's calibrated stroke;
+    ``--out -`` writes the table to standard output. The covariate columns of the poses (time,
+    leg temperatures, payload) are carried along.
     """
     import numpy as np
 
-    from hexcal.core import inverse_kinematics, is_feasible, leg_readings
+    from hexcal.core import inverse_kinematics, is_feasible, leg_readings, stroke_excess
     from hexcal.io import LEG_LENGTH_COLUMNS, LEG_READING_COLUMNS, iter_poses, write_table_blocks
 
     geometry = load_geometry(args.geometry, args.euler)
     bad: list[str] = []
     outside = 0
+    beyond = None
 
     read = iter_poses(args.poses, geometry.euler, **table_reading(args), covariates=True)
     first = [next(read)]  # its covariate columns are the file's
     extra = tuple(first[0][2].to_columns())
 
     def blocks() -> Any:
-        nonlocal outside
+        nonlocal outside, beyond
         for poses, ids, covariates in _first_then(first, read):
             lengths = inverse_kinematics(geometry, poses)
             feasible = is_feasible(geometry, poses, margin=1e-6)
@@ -68,23 +70,41 @@ def cmd_ik(args: argparse.Namespace) -> None:
                 rows = np.flatnonzero(~feasible)
                 outside += rows.size
                 bad.extend(ids[k] for k in rows[: max(0, 21 - len(bad))])
+            readings = leg_readings(geometry, lengths)
+            part = stroke_excess(geometry, readings, ids=ids)
+            beyond = part if beyond is None or part is None else beyond.merge(part)
             more = covariates.to_columns().values()
-            yield np.column_stack([lengths, leg_readings(geometry, lengths), *more]), ids
+            yield np.column_stack([lengths, readings, *more]), ids
 
     rows = write_table_blocks(args.out, LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS + extra, blocks())
     if outside:
         more = f" and {outside - len(bad)} more" if outside > len(bad) else ""
         warn(f"hexcal: warning: {outside} pose(s) outside the leg length limits: {', '.join(bad)}{more}")
+    _warn_beyond_stroke(beyond, "pose(s)")
     if args.out != "-":
         print(f"wrote leg lengths of {rows} pose(s) to {args.out}")
 
 
+def _warn_beyond_stroke(beyond: Any, what: str) -> None:
+    """The library's warning line of rows beyond the calibrated stroke, if any."""
+    line = beyond.warning(what) if beyond is not None else None
+    if line:
+        warn(f"hexcal: warning: {line}")
+
+
 def cmd_fk(args: argparse.Namespace) -> None:
     """Poses of the leg lengths (or readings) of a file, by forward kinematics, block by block
-    (the covariate columns of the legs carried along)."""
+    (the covariate columns of the legs carried along); warns of readings beyond a stroke model's
+    calibrated stroke."""
     import numpy as np
 
-    from hexcal.core import forward_kinematics, leg_lengths, leg_limit_violations, pose_jacobian_from_arrays
+    from hexcal.core import (
+        forward_kinematics,
+        leg_lengths,
+        leg_limit_violations,
+        pose_jacobian_from_arrays,
+        stroke_excess,
+    )
     from hexcal.io import iter_legs, iter_poses, write_table_blocks
 
     geometry = load_geometry(args.geometry, args.euler)
@@ -100,8 +120,10 @@ def cmd_fk(args: argparse.Namespace) -> None:
     read = iter_legs(args.legs, **table_reading(args))
     first = [next(read)]  # its covariate columns are the file's
     extra = tuple(first[0].covariates.to_columns())
+    beyond = None
 
     def blocks() -> Any:
+        nonlocal beyond
         pending = np.empty((0, 6))
         warned = False
         for legs in _first_then(first, read):
@@ -112,6 +134,8 @@ def cmd_fk(args: argparse.Namespace) -> None:
                     )
                     warned = True
                 lengths = leg_lengths(geometry, legs.readings)
+                part = stroke_excess(geometry, legs.readings, ids=legs.ids)
+                beyond = part if beyond is None or part is None else beyond.merge(part)
             else:
                 lengths = legs.lengths
             short, long = leg_limit_violations(geometry, lengths)
@@ -158,6 +182,7 @@ def cmd_fk(args: argparse.Namespace) -> None:
             raise CommandError(f"{args.guess}: more guess poses than rows of {args.legs}")
 
     write_table_blocks(args.out, ("x", "y", "z", "a", "b", "c", *extra), blocks())
+    _warn_beyond_stroke(beyond, "row(s) of readings")
     if args.out != "-":
         print(
             f"wrote {stats['rows']} pose(s) to {args.out} (max leg residual "
