@@ -156,31 +156,40 @@ class LegModelChoice:
         }
 
     def lines(self) -> list[str]:
-        """The choice and the scores as text, one candidate a line."""
-        out = [f"leg model chosen by cross-validation ({self.scheme}): {self.choice}"]
-        for name, s in self.scores.items():
-            mark = " <- chosen" if name == self.choice else ""
-            if s.get("beyond_ends"):
-                mark += " (worse than the simplest at the stroke's ends: not chosen)"
-            ends = s.get("ends_leg_rms_mm")
-            split = (
-                f" (within {s['within_leg_rms_mm']:.4g}, at the stroke's ends {ends:.4g})"
-                if ends is not None
-                else ""
-            )
+        """The choice and the scores as text, one candidate a line (:func:`choice_lines`)."""
+        return choice_lines(self.to_dict())
+
+
+def choice_lines(choice: dict[str, Any]) -> list[str]:
+    """The lines of a leg-model choice's JSON form (:meth:`LegModelChoice.to_dict`): what the text
+    report says of it, the same from a result and from a file."""
+    out = [f"leg model chosen by cross-validation ({choice['scheme']}): {choice['choice']}"]
+    for name, s in choice["scores"].items():
+        mark = " <- chosen" if name == choice["choice"] else ""
+        if s.get("beyond_ends"):
+            mark += " (worse than the simplest at the stroke's ends: not chosen)"
+        ends = s.get("ends_leg_rms_mm")
+        split = ""
+        if ends is not None:
+            split = f" (within {s['within_leg_rms_mm']:.4g}, at the stroke's ends {ends:.4g})"
+        out.append(
+            f"  {name:<10} held-out leg RMS {s['leg_rms_mm']:.4g} mm{split}, position RMS "
+            f"{_figure(s['position_rms_mm'], '.4g')} mm, orientation RMS "
+            f"{_figure(s['orientation_rms_rad'], '.3g')} rad ({s['parameters']:d} machine parameters){mark}"
+        )
+    for kind, words in (("within", "the other parts"), ("ends", "the stroke's ends")):
+        b = (choice.get("beyond_stroke") or {}).get(kind)
+        if b and b["rows"]:
             out.append(
-                f"  {name:<10} held-out leg RMS {s['leg_rms_mm']:.4g} mm{split}, position RMS "
-                f"{s['position_rms_mm']:.4g} mm, orientation RMS {s['orientation_rms_rad']:.3g} rad "
-                f"({s['parameters']:d} machine parameters){mark}"
+                f"  held-out poses beyond their training stroke, {words}: {b['beyond_share']:.0%} of "
+                f"{b['rows']} (by up to {b['largest_share_of_stroke']:.0%} of it)"
             )
-        for kind, words in (("within", "the other parts"), ("ends", "the stroke's ends")):
-            b = self.beyond_stroke.get(kind)
-            if b and b["rows"]:
-                out.append(
-                    f"  held-out poses beyond their training stroke, {words}: {b['beyond_share']:.0%} of "
-                    f"{b['rows']} (by up to {b['largest_share_of_stroke']:.0%} of it)"
-                )
-        return out
+    return out
+
+
+def _figure(value: Any, spec: str) -> str:
+    """A figure of the JSON form (None where it was not finite)."""
+    return "nan" if value is None else format(float(value), spec)
 
 
 class Split(NamedTuple):

@@ -268,19 +268,14 @@ def _number(value: Any) -> float:
 
 def leg_model_lines(data: dict[str, Any]) -> list[str]:
     """The leg model, and the cross-validation that chose it (``leg_model="auto"``)."""
+    from hexcal.calibration.leg_model_choice import choice_lines
+
     choice = data.get("leg_model_choice")
     if not choice and data.get("leg_model", "linear") == "linear":
         return []
     lines = ["[[Leg model]]", f"    {data.get('leg_model', '')}"]
     if choice:
-        lines[-1] += f", chosen by cross-validation ({choice['scheme']}; {choice['rule']})"
-        for name, s in choice["scores"].items():
-            mark = " <- chosen" if name == choice["choice"] else ""
-            lines.append(
-                f"    {name:<10} held-out leg RMS {s['leg_rms_mm']:.4g} mm, position RMS "
-                f"{_number(s['position_rms_mm']):.4g} mm, orientation RMS "
-                f"{_number(s['orientation_rms_rad']):.3g} rad ({s['parameters']:d} machine parameters){mark}"
-            )
+        lines += [f"    {line}" for line in choice_lines(choice)]
     return lines
 
 
