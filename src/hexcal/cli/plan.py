@@ -297,7 +297,11 @@ def cmd_select(args: argparse.Namespace) -> None:
 def circle_options(p: argparse.ArgumentParser, select: bool = False) -> None:
     """The ballbar options of ``candidates`` and ``select`` (the work: hexcal.cli.ballbar)."""
     p.add_argument("--ballbar", metavar="FILE", help="ballbar setup YAML: its circles instead of poses")
-    p.add_argument("--pivots", help="ballbar pivots 'x,y,z;x,y,z', mm (default: seven about the centre)")
+    p.add_argument(
+        "--pivots",
+        help="ballbar pivots 'x,y,z;NAME=x,y,z', mm; NAME prefixes the ids (default p1, p2, ...; pivots: "
+        "seven about the centre)",
+    )
     p.add_argument("--planes", default="xy,xz,yz", help="ballbar circle planes (of xy, xz, yz)")
     p.add_argument(
         "--tilt", type=float, default=8.0, help="ballbar: circles also tilted ± this about x, y (deg)"

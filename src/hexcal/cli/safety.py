@@ -8,7 +8,7 @@
   hexcal starts (``nohup``) stays ignored; a forked child (a pool worker) that inherits the
   handlers ends at once on a signal, as by default.
 - **Options**: counts positive, ``--jobs`` not negative (0 = all cores), tolerances finite and
-  positive, ``--max-rows`` positive, and sizes within :data:`MEMORY_BUDGET` before anything
+  positive, ``--max-rows`` positive, and sizes within the library's memory budget before anything
   is allocated (:func:`check_options`).
 - **Outputs**: a command declares ``inputs``, ``outputs`` and ``folders`` (names of its
   options), the files named inside option values (``input_lists``) and the files it writes
@@ -37,10 +37,6 @@ from collections.abc import Iterator
 from typing import Any
 
 from hexcal.cli.common import CommandError
-
-#: Bytes the arrays of one command may take, checked from the options before allocation
-#: (``errormap --grid/--levels/--points/--draws``, ``candidates``/``select --candidates``).
-MEMORY_BUDGET = 2 * 1024**3
 
 #: Options that count things: each must be at least 1.
 COUNT_OPTIONS = ("trials", "n", "draws", "levels", "grid", "points", "max_rows")
@@ -155,11 +151,13 @@ def _candidate_count(spec: str) -> int:
 
 
 def _budget(option: str, size: int, what: str) -> None:
-    if size > MEMORY_BUDGET:
-        raise CommandError(
-            f"{option}: {what} would need about {size / 1024**3:.1f} GiB, over hexcal's memory "
-            f"budget of {MEMORY_BUDGET / 1024**3:.0f} GiB; choose a smaller value"
-        )
+    """The library's one budget (:data:`hexcal.core.resources.MEMORY_BUDGET`), checked from the
+    options before anything is read: ``errormap --grid/--levels/--points/--draws``,
+    ``candidates``/``select --candidates``, ``--trials``; the library checks the sizes that
+    only it can count (ballbar pivots and circles) itself, before allocating."""
+    from hexcal.core.resources import check_memory  # standard library only: no numpy
+
+    check_memory(option, size, what)
 
 
 def _same_value(text: str) -> Any:

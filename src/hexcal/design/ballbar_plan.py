@@ -27,16 +27,18 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.calibration.accuracy import predicted_pose_accuracy
+from hexcal.calibration.accuracy import position_metric, predicted_pose_accuracy
 from hexcal.core import Geometry, NoiseModel, rotation_matrices
 from hexcal.core.linalg import numerical_rank, scaled_svd
+from hexcal.core.noise import require_noise
+from hexcal.core.resources import check_memory
 from hexcal.design.candidates import MIN_SINGULARITY_DISTANCE, check_feasibility
 from hexcal.errors import InputError
 from hexcal.estimation.gauge import gauge_freedoms, gauge_projector
 from hexcal.estimation.problem import Problem
 from hexcal.estimation.uncertainty import cramer_rao, information_rows, planned_session, projected_jacobian
 from hexcal.instruments.ballbar import BallbarModel
-from hexcal.instruments.ballbar_setup import BallbarSetup
+from hexcal.instruments.ballbar_setup import MIN_LENGTH, BallbarSetup
 
 #: Circle planes by name: the two in-plane axes of the base frame.
 PLANES = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
@@ -45,6 +47,16 @@ PLANES = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
 RIDGE = 1e-9
 #: What a circle's label says: its plane and its held orientation (level or tilted a,b,c).
 LABEL = re.compile(r"plane (xy|xz|yz), (level|tilted ([^,]+),([^,]+),([^ ]+) deg)")
+#: A pivot's name (the prefix of its poses' ids): letters, digits, ``_`` and ``-``.
+PIVOT_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,31}")
+#: Most pivots of one plan: each pivot is a session (a mounting of the bar, with its own seven
+#: quantities), and a campaign has a handful; the selection's information matrices grow with
+#: the cube of the pivots.
+MAX_PIVOTS = 100
+#: Bytes per candidate circle point while the circles are built and checked (poses in both feed
+#: directions, the feasibility check's leg vectors and distances, the point's id): measured
+#: about 1,300 (4.5 GiB for 10,000 pivots of 360 points each).
+CIRCLE_POINT_BYTES = 1500
 
 
 @dataclass(frozen=True)
@@ -58,7 +70,7 @@ class Circles:
     circle : ndarray of int, shape (m,)
         The circle of each pose.
     ids : tuple of str
-        Pose labels ``p{pivot}.c{circle}.{ccw|cw}.{point}`` (1-based).
+        Pose labels ``{pivot name}.c{circle}.{ccw|cw}.{point}`` (1-based).
     pivots : ndarray, shape (P, 3)
         The pivot positions (base frame, mm).
     pivot : ndarray of int, shape (C,)
@@ -67,6 +79,8 @@ class Circles:
         One line per circle: pivot, plane, orientation, direction.
     setup : BallbarSetup
         The bar (ball, length) the circles are for.
+    names : tuple of str
+        Each pivot's name, the prefix of its poses' ids (default ``p1``, ``p2``, ...).
     """
 
     poses: NDArray[np.float64]
@@ -76,6 +90,16 @@ class Circles:
     pivot: NDArray[np.intp]
     labels: tuple[str, ...]
     setup: BallbarSetup
+    names: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.names:
+            object.__setattr__(self, "names", tuple(f"p{k + 1}" for k in range(len(self.pivots))))
+
+    def pivot_title(self, p: int) -> str:
+        """How lines name pivot ``p``: its number (``pivot 5``), or the name given to it."""
+        default = self.names[p] == f"p{p + 1}"
+        return f"pivot {p + 1}" if default else f"pivot {self.names[p]}"
 
     @property
     def n_circles(self) -> int:
@@ -95,6 +119,7 @@ class Circles:
             self.pivot[chosen],
             tuple(self.labels[c] for c in chosen),
             self.setup,
+            self.names,
         )
 
     def circle_pivot(self, c: int) -> int:
@@ -120,6 +145,34 @@ def pivot_grid(geometry: Geometry, setup: BallbarSetup, spread: float = 0.5) -> 
         [np.zeros(3), *(s * spread * half[k] * np.eye(3)[k] for k in range(3) for s in (1, -1))]
     )
     return base + offsets
+
+
+def pivot_names(names: list[str | None] | tuple[str | None, ...] | None, count: int) -> tuple[str, ...]:
+    """The names of ``count`` pivots: each given name, else ``p{k}`` (its 1-based number).
+
+    A name is the prefix of its poses' ids and so of the session they are measured in: give
+    one that no other session of the campaign has (a pivot at ``0,0,460`` planned after a
+    session ``p1`` would otherwise be ``p1`` too). Names given twice, or a default clashing
+    with a given name, are refused.
+
+    >>> pivot_names(["p7", None], 2)
+    ('p7', 'p2')
+    """
+    given = list(names) if names is not None else [None] * count
+    if len(given) != count:
+        raise InputError(f"pivot names: {len(given)} for {count} pivots")
+    out = tuple(name if name is not None else f"p{k + 1}" for k, name in enumerate(given))
+    for k, name in enumerate(out):
+        if given[k] is not None and not PIVOT_NAME.fullmatch(name):
+            raise InputError(
+                f"--pivots: pivot name {name!r}: a letter, then letters, digits, _ or - (32 at most)"
+            )
+        if name in out[:k]:
+            raise InputError(
+                f"--pivots: two pivots are named {name!r} (unnamed pivot k is p<k>); name each "
+                "pivot once (NAME=x,y,z)"
+            )
+    return out
 
 
 def orientations(tilt: float) -> NDArray[np.float64]:
@@ -157,20 +210,41 @@ def ballbar_circles(
     points: int = 12,
     d0: float = 0.0,
     min_distance: float | None = None,
+    names: list[str | None] | tuple[str | None, ...] | None = None,
 ) -> tuple[Circles, int]:
     """The feasible circles of a bar at ``pivots`` (default :func:`pivot_grid`).
 
     Every pivot, plane and held orientation (:func:`orientations` of ``tilt``, rad) gives one
     circle of ``points`` poses at radius ``length + d0``, in each feed direction (``ccw``,
     ``cw``). Returns the circles whose every point is feasible and how many were left out.
+    ``names`` (one per pivot, None for the default ``p{k}``: :func:`pivot_names`) prefix the
+    poses' ids. Refused before anything is allocated: a bar shorter than ``MIN_LENGTH`` along
+    the circles, more than :data:`MAX_PIVOTS` pivots, circles over the memory budget.
     """
     if points < 3:
         raise InputError(f"--points {points}: a circle needs at least 3 points")
     radius = setup.length + d0
+    if not radius >= MIN_LENGTH:  # NaN too
+        raise InputError(
+            f"--d0 {d0:g}: the bar would be {radius:g} mm long ({setup.length:g} mm + d0); a bar is at "
+            f"least {MIN_LENGTH:g} mm long"
+        )
     pivots = pivot_grid(geometry, setup) if pivots is None else np.asarray(pivots, dtype=float).reshape(-1, 3)
     if not np.all(np.isfinite(pivots)):
         raise InputError("pivots must be finite numbers (mm)")
+    if len(pivots) > MAX_PIVOTS:
+        raise InputError(
+            f"--pivots: {len(pivots):,} pivots, at most {MAX_PIVOTS} (each is a session: a mounting of "
+            "the bar)"
+        )
+    prefixes = pivot_names(names, len(pivots))
     held = orientations(tilt)
+    n_circles = 2 * len(pivots) * len(planes) * len(held)
+    check_memory(
+        "--points" if points >= n_circles else "--pivots",
+        CIRCLE_POINT_BYTES * n_circles * points,
+        f"{n_circles:,} circles of {points:,} points",
+    )
     combos = [(p, plane, k) for p in range(len(pivots)) for plane in planes for k in range(len(held))]
     if not combos:
         raise InputError("no circles: give at least one plane")
@@ -188,8 +262,9 @@ def ballbar_circles(
         way = "ccw" if c < n else "cw"
         deg = np.rad2deg(held[k])
         tilted = "level" if not np.any(deg) else "tilted " + ",".join(f"{v:+g}" for v in deg) + " deg"
-        labels.append(f"pivot {p + 1}, plane {plane}, {tilted}, {way}")
-        ids += [f"p{p + 1}.c{new + 1}.{way}.{j + 1:02d}" for j in range(points)]
+        title = f"pivot {p + 1}" if prefixes[p] == f"p{p + 1}" else f"pivot {prefixes[p]}"
+        labels.append(f"{title}, plane {plane}, {tilted}, {way}")
+        ids += [f"{prefixes[p]}.c{new + 1}.{way}.{j + 1:02d}" for j in range(points)]
         poses.append(both[c])
         circle += [new] * points
         pivot_of.append(p)
@@ -202,6 +277,7 @@ def ballbar_circles(
             np.asarray(pivot_of, dtype=np.intp),
             tuple(labels),
             setup,
+            prefixes,
         ),
         int((~feasible).sum()),
     )
@@ -240,12 +316,27 @@ class CircleSelection:
         return np.unique(self.circles.pivot)
 
 
-def _trace(info: NDArray, proj: NDArray, counted: NDArray, scale: NDArray) -> NDArray:
-    """Batched trace (mm²) of ``P (F + ridge I)⁻¹ Pᵀ`` over the ``counted`` parameters (the
-    machine's)."""
+def _criterion(info: NDArray, proj: NDArray, weight: NDArray) -> NDArray:
+    """Batched ``trace(P (F + ridge I)⁻¹ Pᵀ W)`` (mm²) for the informations ``F``, gauge-fixed
+    by ``P``: the A-criterion of the machine's parameters (``W`` diagonal, their scales²), or
+    the predicted position error's mean square (``W``: :func:`selection_weight`)."""
     ridge = RIDGE * np.max(np.diagonal(info, axis1=-2, axis2=-1), axis=-1)[..., None, None]
     cov = proj @ np.linalg.inv(info + ridge * np.eye(info.shape[-1])) @ proj.T
-    return np.einsum("...ii,i->...", cov, counted * scale**2)
+    return np.einsum("...ij,ji->...", cov, weight)
+
+
+def selection_weight(geometry: Geometry, problem: Problem, gauge: Any) -> NDArray[np.float64]:
+    """``W`` (n_free, n_free, scaled units) whose ``trace(Σ W)`` is the square of the position
+    RMS that :func:`circle_accuracy` predicts for a covariance ``Σ`` of the free parameters
+    (:func:`hexcal.calibration.accuracy.position_metric` of the machine's block, the frames'
+    rigid motions removed as there)."""
+    k = int(problem.machine_mask.sum())
+    rigid = (gauge.generators * problem.scale[:, None])[:k] if gauge.size else None
+    metric = position_metric(geometry, problem.machine_mask, rigid)
+    scale = problem.scale[:k]
+    weight = np.zeros((problem.n_free, problem.n_free))
+    weight[:k, :k] = scale[:, None] * metric * scale[None, :]
+    return weight
 
 
 def _starter_kind(label: str) -> tuple[str, str] | None:
@@ -300,33 +391,68 @@ def select_circles(
     if not 1 <= n <= circles.n_circles:
         raise InputError(f"--circles {n}: choose between 1 and {circles.n_circles} circles")
     noise = NoiseModel(distribution="normal") if noise is None else noise
+    require_noise(noise, "every predicted accuracy", pose_noise=False)  # legs and the bar
     problem = circle_problem(geometry, circles, fit)
+    # each point's information rows (the 6 legs and the bar), the circles' information matrices,
+    # and as many again for the moves scored at once and their inverses
+    size = 8 * problem.n_free * (7 * len(circles.poses) + 3 * circles.n_circles * problem.n_free)
+    what = f"choosing among {circles.n_circles:,} circles at {len(circles.pivots)} pivots"
+    check_memory("--pivots", size, what)
     blocks = circle_rows(problem, circles, noise)
     infos = np.stack([b.T @ b for b in blocks])  # (C, n, n)
-    proj = gauge_projector(gauge_freedoms(problem, problem.full0))
-    counted = np.zeros(problem.n_free, dtype=bool)
-    counted[: int(problem.machine_mask.sum())] = True
+    gauge = gauge_freedoms(problem, problem.full0)
+    proj = gauge_projector(gauge)
+    counted = np.zeros(problem.n_free)
+    counted[: int(problem.machine_mask.sum())] = 1.0
+    a_weight = np.diag(counted * problem.scale**2)  # the A-criterion: the machine's variances
+    position = selection_weight(geometry, problem, gauge)
     first = starters(circles)
+
+    def score(sets: list[list[int]], base: NDArray) -> NDArray:
+        return _criterion(base + np.stack([infos[m].sum(axis=0) for m in sets]), proj, a_weight)
+
+    def singles(chosen: list[int]) -> list[list[int]]:
+        used = {int(circles.pivot[c]) for c in chosen}
+        return [[c] for c in range(circles.n_circles) if c not in chosen and int(circles.pivot[c]) in used]
+
+    def ahead(chosen: list[int], base: NDArray, steps: int) -> float:
+        """The predicted position error (mean square, mm²) after ``steps`` more greedy
+        circles at the pivots in use (inf: too few left)."""
+        chosen = list(chosen)
+        for _ in range(steps):
+            moves = singles(chosen)
+            if not moves:
+                return np.inf
+            best = moves[int(np.argmin(score(moves, base)))]
+            chosen += best
+            base = base + infos[best[0]]
+        return float(_criterion(base[None], proj, position)[0])
+
     chosen: list[int] = []
     total = np.zeros_like(infos[0])
-    current = np.inf
-    history = []
+    history: list[float] = []
     while len(chosen) < n:
-        used = {int(circles.circle_pivot(c)) for c in chosen}
-        moves = [[c] for c in range(circles.n_circles) if c not in chosen and int(circles.pivot[c]) in used]
+        used = {int(circles.pivot[c]) for c in chosen}
         room = n - len(chosen)
-        moves += [group for p, group in first.items() if p not in used and len(group) <= room]
+        opens = [group for p, group in first.items() if p not in used and len(group) <= room]
+        moves = singles(chosen) + opens
         if not moves:  # every pivot used up: any circle left
             moves = [[c] for c in range(circles.n_circles) if c not in chosen]
-        added = np.stack([infos[m].sum(axis=0) for m in moves])
-        scores = _trace(total + added, proj, counted, problem.scale)
-        cost = np.array([len(m) for m in moves], dtype=float)
-        gain = -scores if not np.isfinite(current) else (current - scores) / cost
-        best = int(np.argmax(gain))
+        scores = score(moves, total)
+        best = int(np.argmin(scores))
+        one = [k for k, m in enumerate(moves) if len(m) == 1]
+        opening = min((k for k, m in enumerate(moves) if len(m) > 1), key=lambda k: scores[k], default=None)
+        if chosen and one and opening is not None:
+            # a pivot's starters lower the criterion less at once than as many circles at the
+            # pivots in use, and often more in the end: the plan is completed both ways (greedy
+            # circles at the pivots then in use) and the lower predicted position error decides
+            group = moves[opening]
+            stay = ahead(chosen, total, room)
+            go = ahead(chosen + group, total + infos[group].sum(axis=0), room - len(group))
+            best = opening if go < stay else min(one, key=lambda k: scores[k])
         chosen += moves[best]
-        total = total + added[best]
-        current = float(scores[best])
-        history += [current] * len(moves[best])
+        total = total + infos[moves[best]].sum(axis=0)
+        history += [float(scores[best])] * len(moves[best])
     return CircleSelection(np.asarray(chosen, dtype=np.intp), circles.subset(chosen), tuple(history))
 
 
@@ -338,6 +464,7 @@ def circle_accuracy(
     rank and the mean σ of the joints and ``l0`` (mm); ``poses`` counts the test poses of the
     accuracy, ``circle_poses`` those measured."""
     noise = NoiseModel(distribution="normal") if noise is None else noise
+    require_noise(noise, "every predicted accuracy", pose_noise=False)  # legs and the bar
     problem = circle_problem(geometry, circles, fit)
     cov = cramer_rao(problem, noise)
     k = int(problem.machine_mask.sum())
