@@ -54,19 +54,27 @@ def circles_of(args: argparse.Namespace) -> tuple[Any, Any, int]:
     setup = load_setup(args.ballbar)
     if setup.kind != "ballbar":
         raise CommandError(f"--ballbar {args.ballbar}: not a ballbar setup (it has no 'ballbar:' mapping)")
-    planes = tuple(p.strip() for p in args.planes.split(",") if p.strip())
-    unknown = [p for p in planes if p not in PLANES]
-    if unknown or not planes:
-        raise CommandError(f"--planes: {', '.join(unknown) or 'none'}; give some of xy, xz, yz")
-    if not (math.isfinite(args.tilt) and 0 <= args.tilt < 45):
-        raise CommandError(f"--tilt {args.tilt}: a tilt from 0 to 45 degrees")
-    if not math.isfinite(args.d0):
-        raise CommandError(f"--d0 {args.d0}: not a finite number")
+    given: dict[str, Any] = {}  # the options given; the library's defaults for the others
+    if args.planes is not None:
+        planes = tuple(p.strip() for p in args.planes.split(",") if p.strip())
+        unknown = [p for p in planes if p not in PLANES]
+        if unknown or not planes:
+            raise CommandError(f"--planes: {', '.join(unknown) or 'none'}; give some of xy, xz, yz")
+        given["planes"] = planes
+    if args.tilt is not None:
+        if not (math.isfinite(args.tilt) and 0 <= args.tilt < 45):
+            raise CommandError(f"--tilt {args.tilt}: a tilt from 0 to 45 degrees")
+        given["tilt"] = float(np.deg2rad(args.tilt))
+    if args.d0 is not None:
+        if not math.isfinite(args.d0):
+            raise CommandError(f"--d0 {args.d0}: not a finite number")
+        given["d0"] = args.d0
+    if args.points is not None:
+        given["points"] = args.points
     pivots, names = _pivots(args.pivots)
     circles, dropped = ballbar_circles(
-        geometry, setup, pivots, planes, float(np.deg2rad(args.tilt)), args.points, args.d0,
-        args.min_distance, names,
-    )  # fmt: skip
+        geometry, setup, pivots, min_distance=args.min_distance, names=names, **given
+    )
     if circles.n_circles == 0:
         raise CommandError(f"--ballbar: none of the {dropped} circle(s) is feasible for this machine")
     return geometry, circles, dropped
@@ -103,11 +111,12 @@ def cmd_select(args: argparse.Namespace) -> None:
         raise CommandError("--html: select --ballbar writes the pose file and --json only")
     geometry, circles, dropped = circles_of(args)
     noise = parse_noise(args.noise, choice(args.noise_dist, ("uniform", "normal"), "--noise-dist"))
-    chosen = select_circles(geometry, circles, args.circles, noise, args.fit)
+    chosen = select_circles(geometry, circles, *([] if args.circles is None else [args.circles]), noise=noise,
+                            fit=args.fit)  # fmt: skip
     acc = circle_accuracy(geometry, chosen.circles, noise, args.fit)
     used = [int(p) + 1 for p in chosen.pivots_used]
     lines = [
-        f"{args.circles} ballbar circle(s) chosen of {circles.n_circles} feasible "
+        f"{len(chosen.chosen)} ballbar circle(s) chosen of {circles.n_circles} feasible "
         f"({dropped} infeasible left out), at {len(used)} pivot(s): "
         f"{', '.join(circles.pivot_title(p - 1) for p in used)}",
         *(f"  {label}" for label in chosen.circles.labels),

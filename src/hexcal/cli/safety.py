@@ -183,9 +183,23 @@ def _check_lists(values: dict[str, Any]) -> None:
             seen[key] = item
 
 
+def _check_needs(values: dict[str, Any]) -> None:
+    """Refuse an option that cannot act without another (``set_defaults(needs={dest: other})``
+    in a command's ``register``: ``candidates --points`` draws the circles of ``--ballbar``).
+    Such options default to None, the library deciding their defaults; ``needs`` is consumed."""
+    for dest, other in (values.pop("needs", None) or {}).items():
+        if values.get(dest) is not None and not values.get(other):
+            raise CommandError(
+                f"{_option(dest)} acts only with {_option(other)}; give {_option(other)}, or leave "
+                f"{_option(dest)} out"
+            )
+
+
 def check_options(args: argparse.Namespace) -> None:
-    """Refuse nonsense values of the common options, and sizes over the memory budget."""
+    """Refuse nonsense values of the common options, options that cannot act, and sizes over
+    the memory budget."""
     values = vars(args)
+    _check_needs(values)
     for dest in COUNT_OPTIONS:
         value = values.get(dest)
         if isinstance(value, int) and value < 1:

@@ -47,6 +47,10 @@ PLANES = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
 RIDGE = 1e-9
 #: What a circle's label says: its plane and its held orientation (level or tilted a,b,c).
 LABEL = re.compile(r"plane (xy|xz|yz), (level|tilted ([^,]+),([^,]+),([^ ]+) deg)")
+#: The held orientations' tilt of the circles by default (rad): 8°, about x and about y.
+DEFAULT_TILT = float(np.deg2rad(8.0))
+#: Circles :func:`select_circles` chooses by default.
+DEFAULT_CIRCLES = 12
 #: A pivot's name (the prefix of its poses' ids): letters, digits, ``_`` and ``-``.
 PIVOT_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,31}")
 #: Most pivots of one plan: each pivot is a session (a mounting of the bar, with its own seven
@@ -206,7 +210,7 @@ def ballbar_circles(
     setup: BallbarSetup,
     pivots: ArrayLike | None = None,
     planes: tuple[str, ...] = ("xy", "xz", "yz"),
-    tilt: float = 0.0,
+    tilt: float = DEFAULT_TILT,
     points: int = 12,
     d0: float = 0.0,
     min_distance: float | None = None,
@@ -375,7 +379,7 @@ def starters(circles: Circles) -> dict[int, list[int]]:
 def select_circles(
     geometry: Geometry,
     circles: Circles,
-    n: int,
+    n: int = DEFAULT_CIRCLES,
     noise: NoiseModel | None = None,
     fit: str = "joints,l0",
 ) -> CircleSelection:
