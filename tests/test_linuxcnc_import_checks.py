@@ -30,8 +30,8 @@ def exported(tmp_path_factory) -> Path:
 
 
 def _import(folder: Path, out: Path):
-    return run("import", "linuxcnc", "--hal", folder / "hexcal-kins.hal", "--ini", folder / "hexcal-joints.ini",
-               "--out", out)  # fmt: skip
+    return run("import", "linuxcnc", "--hal", folder / "hexcal-kins.hal",
+               "--ini", folder / "hexcal-joints.ini", "--out", out)  # fmt: skip
 
 
 def _copy(exported: Path, tmp_path: Path) -> Path:
@@ -85,7 +85,8 @@ def _sawtooth(folder: Path) -> None:
     """Monotonic motor positions, trims within the travel, but a 3 mm sawtooth that no stroke
     model follows: the fitted model misses LinuxCNC's trims by more than a millimetre."""
     ini = folder / "hexcal-joints.ini"
-    ini.write_text("\n".join(line for line in ini.read_text().splitlines() if "HEXCAL_STROKE" not in line) + "\n")
+    kept = [line for line in ini.read_text().splitlines() if "HEXCAL_STROKE" not in line]
+    ini.write_text("\n".join(kept) + "\n")
     for n in range(6):
         rows = _rows(folder / f"hexcal-comp-{n}.tbl")
         nominal = np.linspace(rows[0][0], rows[-1][0], 160)
@@ -101,15 +102,15 @@ def _limits_crossed(folder: Path) -> None:
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        (_point_of_a_million, "hexcal-comp-0.tbl: entry 26 (joint position 700): a trim of 1e+06 mm, more than"),
+        (_point_of_a_million, "hexcal-comp-0.tbl: entry 26 (joint position 700): a trim of 1e+06 mm"),
         (_motor_back, "the motor would go back from"),
-        (_stroke_of_nothing, "[JOINT_0] HEXCAL_STROKE = 0 1e-09 does not cover the readings of hexcal-comp-0.tbl"),
+        (_stroke_of_nothing, "[JOINT_0] HEXCAL_STROKE = 0 1e-09 does not cover the readings of"),
         (_type_0_mix_up, "a trim of 605.26 mm, more than the leg's whole travel"),
         (_sawtooth, "the tables do not describe a leg of this model"),
         (_limits_crossed, "[JOINT_0] MIN_LIMIT 1200 exceeds its MAX_LIMIT 1100: the joint has no range"),
     ],
 )
-def test_what_describes_no_leg_is_refused_in_one_line(exported: Path, tmp_path: Path, change, message) -> None:
+def test_what_describes_no_leg_is_refused_in_one_line(exported: Path, tmp_path: Path, change, message):
     """Each was imported (exit 0; 'follows the tables within 0.00285 mm', or the limits
     dropped), and some written geometries were then refused by ik, fk and export."""
     folder = _copy(exported, tmp_path)
@@ -117,3 +118,22 @@ def test_what_describes_no_leg_is_refused_in_one_line(exported: Path, tmp_path: 
     done = _import(folder, tmp_path / "g.yaml")
     assert done.code == 1 and message in done.err, done.err
     assert done.err.count("\n") == 1 and not (tmp_path / "g.yaml").exists()
+
+
+def test_a_geometry_in_another_sequence_comes_back_whole(tmp_path: Path) -> None:
+    """``euler: XYZ`` lost its workspace box (its angles are not a box of G-code's A B C, so
+    the export wrote none) and every import lost the name; both come back, in the sequence
+    exported, the home pose's angles converted back from A B C."""
+    machine = preset("paper-hmt")
+    assert machine.euler == "XYZ"
+    home = machine.home_pose.copy()
+    home[3:] = np.deg2rad([3.0, -2.0, 5.0])
+    save_geometry(machine.replace(home_pose=home), tmp_path / "g.yaml")
+    assert run("export", "linuxcnc", "--geometry", tmp_path / "g.yaml", "--out", tmp_path / "x").code == 0
+    done = _import(tmp_path / "x", tmp_path / "back.yaml")
+    assert done.code == 0 and "(euler XYZ, as hexcal exported it" in done.out, done.err
+    back = load_geometry(tmp_path / "back.yaml")
+    assert back.name == "paper-hmt" and back.euler == "XYZ"
+    np.testing.assert_allclose(back.workspace, machine.workspace, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(back.home_pose, home, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(back.base_joints, machine.base_joints, rtol=0, atol=1e-9)

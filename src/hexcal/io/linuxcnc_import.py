@@ -9,8 +9,8 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Sequence
-from typing import Any
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -37,6 +37,12 @@ _LINEAR_UNITS = {
 }
 _COORD = re.compile(r"genhexkins\.(base|platform)\.(\d+)\.([xyz])")
 _INI_REF = re.compile(r"\[([^\]\s]+)\]([^\s\[\]]+)")
+#: What hexcal's export says in its header comments: the geometry's name and, when its poses
+#: are not in G-code's sequence, theirs (:func:`hexcal.io.linuxcnc.export_linuxcnc`).
+_EXPORT_NAME = re.compile(r"^# source geometry: .* \(name (?P<name>[^()\n]+)\)$", re.MULTILINE)
+_EXPORT_EULER = re.compile(
+    r"^#   NOTE: this geometry's poses use the sequence '(?P<euler>[xyzXYZ]{3})'", re.MULTILINE
+)
 
 
 @dataclass(frozen=True)
@@ -185,6 +191,23 @@ def parse_hal(text: str, name: str = "HAL file", ini: IniFile | None = None) -> 
 
 
 # -- import -------------------------------------------------------------------------
+
+
+def _own_box(ini: IniFile, scale: float) -> NDArray[np.float64] | None:
+    """The workspace box of hexcal's export of a geometry whose angles are not G-code's A B C:
+    ``[AXIS_X..Z] MIN_LIMIT/MAX_LIMIT`` and ``[AXIS_A..C] HEXCAL_MIN_LIMIT/HEXCAL_MAX_LIMIT``."""
+    box = []
+    for axis in "XYZABC":
+        prefix = "" if axis in "XYZ" else "HEXCAL_"
+        section = f"AXIS_{axis}"
+        lo, hi = ini.number(section, prefix + "MIN_LIMIT"), ini.number(section, prefix + "MAX_LIMIT")
+        if lo is None or hi is None or lo > hi:
+            return None
+        box.append((lo, hi))
+    arr = np.array(box, dtype=float)
+    arr[:3] *= scale
+    arr[3:] = np.deg2rad(arr[3:])
+    return arr
 
 
 def _names(keys: Sequence[tuple[str, int, int]]) -> str:
@@ -341,8 +364,8 @@ def import_linuxcnc(
                 if lo > hi:  # LinuxCNC refuses every move of such a joint: no machine is described
                     line = ini.get(section, "MIN_LIMIT")[1]  # type: ignore[index]
                     raise LinuxCNCFormatError(
-                        f"{ini_name}: line {line}: [{section}] MIN_LIMIT {lo:g} exceeds its MAX_LIMIT {hi:g}: "
-                        "the joint has no range"
+                        f"{ini_name}: line {line}: [{section}] MIN_LIMIT {lo:g} exceeds its MAX_LIMIT "
+                        f"{hi:g}: the joint has no range"
                     )
                 limits.append((lo, hi))
 
@@ -382,8 +405,8 @@ def import_linuxcnc(
             )
         else:
             raise LinuxCNCFormatError(
-                f"{ini_name}: the joints' limits have no common range (the tightest are [{lo:g}, {hi:g}] mm): "
-                "hexcal's leg limits hold for every leg; correct MIN_LIMIT/MAX_LIMIT"
+                f"{ini_name}: the joints' limits have no common range (the tightest are [{lo:g}, {hi:g}] "
+                "mm): hexcal's leg limits hold for every leg; correct MIN_LIMIT/MAX_LIMIT"
             )
 
     workspace = None
@@ -412,7 +435,18 @@ def import_linuxcnc(
 
     if name is None:
         machine = ini.get("EMC", "MACHINE") if ini is not None else None
-        name = machine[0] if machine else "linuxcnc"
+        exported = _EXPORT_NAME.search(ini_text or "") or _EXPORT_NAME.search(hal_text)
+        name = machine[0] if machine else exported["name"] if exported else "linuxcnc"
+    sequence = _EXPORT_EULER.search(ini_text or "")
+    if sequence is not None and sequence["euler"] != LINUXCNC_EULER:
+        # hexcal's own export of a geometry in another sequence: back in that sequence, with
+        # the angle box it keeps for hexcal (HEXCAL_MIN_LIMIT/HEXCAL_MAX_LIMIT of [AXIS_A..C])
+        from scipy.spatial.transform import Rotation
+
+        euler = sequence["euler"]
+        home[3:] = Rotation.from_euler(LINUXCNC_EULER, home[3:]).as_euler(euler) + 0.0  # no -0
+        workspace = _own_box(ini, scale) if ini is not None else None
+        geometry_mm = geometry_mm.replace(euler=euler)
     geometry = geometry_mm.replace(
         initial_leg_lengths=l0,
         leg_gains=gains,
@@ -475,9 +509,9 @@ def check_comp_tables(ini: IniFile, tables: list[tuple[str, Any]], geometry: Geo
         if big.size:
             k = int(big[0])
             raise LinuxCNCFormatError(
-                f"{name}: entry {k + 1} (joint position {table.nominal[k]:g}): a trim of {table.trim[k]:g} mm, "
-                f"more than the leg's whole travel ({travel:g} mm): the table does not describe a leg (check "
-                "COMP_FILE_TYPE: 0 positions reached, 1 trims)"
+                f"{name}: entry {k + 1} (joint position {table.nominal[k]:g}): a trim of "
+                f"{table.trim[k]:g} mm, more than the leg's whole travel ({travel:g} mm): the table does "
+                "not describe a leg (check COMP_FILE_TYPE: 0 positions reached, 1 trims)"
             )
         motor = table.nominal + table.trim
         back = np.flatnonzero(np.diff(motor) <= 0)
@@ -485,8 +519,8 @@ def check_comp_tables(ini: IniFile, tables: list[tuple[str, Any]], geometry: Geo
             k = int(back[0])
             raise LinuxCNCFormatError(
                 f"{name}: entries {k + 1} and {k + 2} (joint positions {table.nominal[k]:g}, "
-                f"{table.nominal[k + 1]:g}): the motor would go back from {motor[k]:g} to {motor[k + 1]:g} mm "
-                "while the joint extends; the table does not describe a leg"
+                f"{table.nominal[k + 1]:g}): the motor would go back from {motor[k]:g} to "
+                f"{motor[k + 1]:g} mm while the joint extends; the table does not describe a leg"
             )
         given = ini.numbers(f"JOINT_{n}", "HEXCAL_STROKE")
         if given is not None and len(given) == 2:
