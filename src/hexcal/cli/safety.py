@@ -346,6 +346,24 @@ def command_outputs(args: argparse.Namespace) -> Iterator[Any]:
             sys.stdout = real
 
 
+# -- progress --------------------------------------------------------------------------------
+#: Environment variable that turns progress lines on (``1``) or off (``0``) whatever stderr is.
+PROGRESS_VARIABLE = "HEXCAL_PROGRESS"
+
+
+def progress_lines(args: argparse.Namespace) -> contextlib.AbstractContextManager[Any]:
+    """The library's progress lines (:mod:`hexcal.core.progress`) on stderr while the command
+    runs: for a terminal (or ``HEXCAL_PROGRESS=1``), unless ``--quiet``; each long loop says
+    how far it is after its first seconds."""
+    wanted = os.environ.get(PROGRESS_VARIABLE)
+    on = sys.stderr.isatty() if wanted is None else wanted.strip() == "1"
+    if not on or getattr(args, "quiet", False):
+        return contextlib.nullcontext()
+    from hexcal.core.progress import reporting
+
+    return reporting(lambda line: print(line, file=sys.stderr, flush=True))
+
+
 # -- messages --------------------------------------------------------------------------------
 _TEMPORARY = re.compile(
     r"(?P<dir>[^\s'\"]*/)?\.(?P<stem>[^/\s'\"]+?)\.[A-Za-z0-9_]{6,}\.tmp(?P<suffix>\.\w+)?(\.old)?"

@@ -31,6 +31,7 @@ from hexcal.calibration.accuracy import position_metric, predicted_pose_accuracy
 from hexcal.core import Geometry, NoiseModel, rotation_matrices
 from hexcal.core.linalg import numerical_rank, scaled_svd
 from hexcal.core.noise import require_noise
+from hexcal.core.progress import task
 from hexcal.core.resources import check_memory
 from hexcal.design.candidates import MIN_SINGULARITY_DISTANCE, check_feasibility
 from hexcal.errors import InputError
@@ -435,28 +436,34 @@ def select_circles(
     chosen: list[int] = []
     total = np.zeros_like(infos[0])
     history: list[float] = []
-    while len(chosen) < n:
-        used = {int(circles.pivot[c]) for c in chosen}
-        room = n - len(chosen)
-        opens = [group for p, group in first.items() if p not in used and len(group) <= room]
-        moves = singles(chosen) + opens
-        if not moves:  # every pivot used up: any circle left
-            moves = [[c] for c in range(circles.n_circles) if c not in chosen]
-        scores = score(moves, total)
-        best = int(np.argmin(scores))
-        one = [k for k, m in enumerate(moves) if len(m) == 1]
-        opening = min((k for k, m in enumerate(moves) if len(m) > 1), key=lambda k: scores[k], default=None)
-        if chosen and one and opening is not None:
-            # a pivot's starters lower the criterion less at once than as many circles at the
-            # pivots in use, and often more in the end: the plan is completed both ways (greedy
-            # circles at the pivots then in use) and the lower predicted position error decides
-            group = moves[opening]
-            stay = ahead(chosen, total, room)
-            go = ahead(chosen + group, total + infos[group].sum(axis=0), room - len(group))
-            best = opening if go < stay else min(one, key=lambda k: scores[k])
-        chosen += moves[best]
-        total = total + infos[moves[best]].sum(axis=0)
-        history += [float(scores[best])] * len(moves[best])
+    done = [0]
+    with task("circles", n) as step:
+        while len(chosen) < n:
+            step(len(chosen) - done[0])
+            done[0] = len(chosen)
+            used = {int(circles.pivot[c]) for c in chosen}
+            room = n - len(chosen)
+            opens = [group for p, group in first.items() if p not in used and len(group) <= room]
+            moves = singles(chosen) + opens
+            if not moves:  # every pivot used up: any circle left
+                moves = [[c] for c in range(circles.n_circles) if c not in chosen]
+            scores = score(moves, total)
+            best = int(np.argmin(scores))
+            one = [k for k, m in enumerate(moves) if len(m) == 1]
+            groups = [k for k, m in enumerate(moves) if len(m) > 1]
+            opening = min(groups, key=lambda k: scores[k], default=None)
+            if chosen and one and opening is not None:
+                # a pivot's starters lower the criterion less at once than as many circles at the
+                # pivots in use, and often more in the end: the plan is completed both ways (greedy
+                # circles at the pivots then in use) and the lower predicted position error decides
+                group = moves[opening]
+                stay = ahead(chosen, total, room)
+                go = ahead(chosen + group, total + infos[group].sum(axis=0), room - len(group))
+                best = opening if go < stay else min(one, key=lambda k: scores[k])
+            chosen += moves[best]
+            total = total + infos[moves[best]].sum(axis=0)
+            history += [float(scores[best])] * len(moves[best])
+        step(len(chosen) - done[0])
     return CircleSelection(np.asarray(chosen, dtype=np.intp), circles.subset(chosen), tuple(history))
 
 

@@ -26,6 +26,8 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from hexcal.core.progress import task
+
 #: Progress callback ``(done, total)``.
 Progress = Callable[[int, int], None]
 #: A chunk function ``(definition, trial indices) -> {name: array over those trials}``.
@@ -175,7 +177,8 @@ def map_trials(
         ``executor``; the trials of a chunk are identified together, so the last digits of
         the batched maximum likelihood, about 1e-11 mm, depend on it).
     progress : callable(done, total), optional
-        Called as chunks complete, in units of ``weight`` per trial.
+        Called as chunks complete, in units of ``weight`` per trial (default: the lines of
+        :mod:`hexcal.core.progress`, when a caller turned them on).
     weight : int
         Work units per trial for ``progress`` (e.g. identifications per trial).
 
@@ -191,6 +194,16 @@ def map_trials(
     >>> map_trials(squares, 1, 5, chunk_size=2)["value"].tolist()
     [1, 2, 5, 10, 17]
     """
+    if progress is None:  # the library's progress lines (hexcal.core.progress), when turned on
+        with task("trials", trials * weight) as step:
+            seen = [0]
+
+            def tick(done: int, total: int) -> None:
+                step(done - seen[0])
+                seen[0] = done
+
+            return map_trials(fn, definition, trials, jobs=jobs, executor=executor, chunk_size=chunk_size,
+                              progress=tick, weight=weight)  # fmt: skip
     n_jobs = resolve_jobs(jobs)
     chunks = chunk_indices(trials, chunk_size=chunk_size)  # the same wherever they run
     if executor is not None:
