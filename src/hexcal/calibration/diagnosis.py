@@ -106,8 +106,9 @@ def diagnose(result: Any, sessions: Sequence[Any], refit: Refit, bad: bool = Tru
         return [r for r, g in zip(out, gains, strict=True) if g < unit.data["rms_converted"]] + [unit]
     if any(r.severity == "fail" for r in out):
         return out  # the gains explain the fit (its residual more than halves): no Euler search
-    cause = _swapped_columns(start, names, sessions, refit, base)
-    cause = cause or _euler(start, names, sessions, refit, base)
+    cause = _best(
+        _swapped_columns(start, names, sessions, refit, base), _euler(start, names, sessions, refit, base)
+    )
     return out + ([cause] if cause is not None else [])
 
 
@@ -122,9 +123,17 @@ def explain_failure(
     return (
         _absolute_readings(start, names, sessions, refit, base)
         or _units(start, names, sessions, refit, base)
-        or _swapped_columns(start, names, sessions, refit, base)
-        or _euler(start, names, sessions, refit, base)
+        or _best(
+            _swapped_columns(start, names, sessions, refit, base), _euler(start, names, sessions, refit, base)
+        )
     )
+
+
+def _best(*causes: Reason | None) -> Reason | None:
+    """The cause whose re-reading fits best (a wrong Euler sequence also fits better with two
+    columns exchanged, and the other way round)."""
+    found = [c for c in causes if c is not None]
+    return min(found, key=lambda c: c.data["rms_converted"], default=None)
 
 
 #: Two points (legs' joints, targets) look swapped when each fitted point lies this many times
