@@ -39,3 +39,15 @@ def test_a_study_default_methods_are_those_the_instrument_allows(tmp_path: Path)
     done = run("simulate", "--setup", setup, "--methods", "paper", "--trials", 2, "--quiet")
     assert done.code == 1 and "(frame free) does not give it; use ml" in done.err, done.err
     assert "frame auto" not in done.err
+
+
+def test_a_study_of_too_many_poses_is_refused_before_it_starts() -> None:
+    """``simulate --poses 5000000`` ran on (growing) until it was killed."""
+    import pytest
+
+    from hexcal.core import preset
+    from hexcal.errors import InputError
+    from hexcal.simulation import run_study
+
+    with pytest.raises(InputError, match=r"^--poses: 5,000,000 poses in each of 1 trial\(s\) at once would need"):
+        run_study(preset("paper-hmt"), pose_counts=(15, 5_000_000), trials=1)

@@ -208,6 +208,11 @@ def study_trials(d: StudyDefinition, indices: NDArray[np.intp]) -> dict[str, NDA
     return out
 
 
+#: Bytes per pose of one trial while a chunk of trials is identified together (the stacked
+#: Jacobians, poses, residuals and the solvers' copies): measured about 12,000 (``simulate
+#: --strategies interior --methods paper,ml --trials 2``: 35 MB more for 3,000 more poses).
+POSE_TRIAL_BYTES = 16_000
+
 #: Estimators a study compares when none are named: the seed paper's and maximum likelihood,
 #: those of them the instrument allows (:func:`default_methods`).
 DEFAULT_METHODS = ("paper", "ml")
@@ -306,6 +311,13 @@ def run_study(
     strategies = dict(STRATEGIES) if strategies is None else strategies
     noises = {"paper": NoiseModel()} if noises is None else noises
     methods = default_methods(campaign) if methods is None else methods
+    from hexcal.core.resources import check_memory
+    from hexcal.simulation.runner import default_chunk_size
+
+    largest = max((int(n) for n in pose_counts), default=0)
+    per_chunk = default_chunk_size(trials) if chunk_size is None else max(1, int(chunk_size))
+    what = f"{largest:,} poses in each of {per_chunk} trial(s) at once"
+    check_memory("--poses", POSE_TRIAL_BYTES * largest * per_chunk, what)
     if campaign is not None:
         from hexcal.errors import UsageError
         from hexcal.estimation import get_estimator
