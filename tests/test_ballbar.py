@@ -153,7 +153,7 @@ def test_gauges_are_the_two_frames_and_fixed_points_leave_named_rotations(paper)
     assert [lab for lab in labels if lab.startswith("platform")] == ["platform rotation z"] and len(weak) == 2
 
 
-@pytest.mark.parametrize("kind", ["paper", "general"])
+@pytest.mark.parametrize("kind", ["paper", pytest.param("general", marks=pytest.mark.slow)])  # paper: fast
 def test_identify_recovers_the_machine_up_to_the_gauges(kind: str) -> None:
     c = campaign(kind)
     data = sessions(c, c.circles, NOISE, 21)

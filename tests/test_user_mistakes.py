@@ -58,6 +58,7 @@ def test_swapped_leg_columns_are_named(files: Path) -> None:
     assert "the leg columns dl1 and dl2 look swapped in the data" in text
 
 
+@pytest.mark.slow  # fast representative: test_swapped_leg_columns_are_named (one diagnosis of pairs)
 def test_swapped_target_columns_are_named(files: Path) -> None:
     data = _swapped(files / "targets.csv", files / "t12.csv", [(f"t1.{a}", f"t2.{a}") for a in "xyz"])
     text = _identify(data, "--setup", files / "tracker.yaml")
