@@ -17,7 +17,8 @@ import pytest
 
 from ballbar_cases import NOISE, SETUP, TILT, campaign, fit, sessions
 from hexcal.calibration import estimate
-from hexcal.design.ballbar_plan import ballbar_circles, circle_accuracy, select_circles, starters
+from hexcal.design.ballbar_plan import ballbar_circles
+from hexcal.design.ballbar_selection import circle_accuracy, select_circles, starters
 from hexcal.errors import IdentificationError, InputError
 from hexcal.estimation import Problem, apply_convention, gauge_freedoms
 from hexcal.instruments import MODELS, BallbarMeasurements, BallbarModel, BallbarSetup, instrument_for
@@ -128,7 +129,7 @@ def test_jacobians_are_those_of_the_distance(paper) -> None:
 def test_gauges_are_the_two_frames_and_fixed_points_leave_named_rotations(paper) -> None:
     import dataclasses
 
-    from hexcal.design.ballbar_plan import circle_problem
+    from hexcal.design.ballbar_selection import circle_problem
     from hexcal.estimation.gauge import unidentifiable
     from hexcal.estimation.uncertainty import projected_jacobian
 

@@ -42,7 +42,8 @@ def test_library_loops_report_through_it() -> None:
     they are (with the caller's clock, every step is past the delay)."""
     from ballbar_cases import NOISE, SETUP, TILT
     from hexcal.core import preset
-    from hexcal.design.ballbar_plan import ballbar_circles, select_circles
+    from hexcal.design.ballbar_plan import ballbar_circles
+    from hexcal.design.ballbar_selection import select_circles
     from hexcal.simulation import map_trials
 
     g = preset("paper-hmt")

@@ -102,7 +102,7 @@ def cmd_candidates(args: argparse.Namespace) -> None:
 def cmd_select(args: argparse.Namespace) -> None:
     """Circles and pivots for the machine, with the predicted accuracy."""
     from hexcal.core.text import printable
-    from hexcal.design.ballbar_plan import circle_accuracy, select_circles
+    from hexcal.design.ballbar_selection import circle_accuracy, select_circles
     from hexcal.io import atomic_write, write_poses
     from hexcal.report.jsonout import json_text
 

@@ -10,13 +10,11 @@ import math
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.geometry import Geometry
-from hexcal.errors import GeometryError
 from hexcal.io.linuxcnc import (
     GENHEXKINS_DEFAULT_BASE,
     GENHEXKINS_DEFAULT_PLATFORM,
@@ -37,12 +35,7 @@ _LINEAR_UNITS = {
 }
 _COORD = re.compile(r"genhexkins\.(base|platform)\.(\d+)\.([xyz])")
 _INI_REF = re.compile(r"\[([^\]\s]+)\]([^\s\[\]]+)")
-#: What hexcal's export says in its header comments: the geometry's name and, when its poses
-#: are not in G-code's sequence, theirs (:func:`hexcal.io.linuxcnc.export_linuxcnc`).
-_EXPORT_NAME = re.compile(r"^# source geometry: .* \(name (?P<name>[^()\n]+)\)$", re.MULTILINE)
-_EXPORT_EULER = re.compile(
-    r"^#   NOTE: this geometry's poses use the sequence '(?P<euler>[xyzXYZ]{3})'", re.MULTILINE
-)
+
 
 
 @dataclass(frozen=True)
@@ -193,23 +186,6 @@ def parse_hal(text: str, name: str = "HAL file", ini: IniFile | None = None) -> 
 # -- import -------------------------------------------------------------------------
 
 
-def _own_box(ini: IniFile, scale: float) -> NDArray[np.float64] | None:
-    """The workspace box of hexcal's export of a geometry whose angles are not G-code's A B C:
-    ``[AXIS_X..Z] MIN_LIMIT/MAX_LIMIT`` and ``[AXIS_A..C] HEXCAL_MIN_LIMIT/HEXCAL_MAX_LIMIT``."""
-    box = []
-    for axis in "XYZABC":
-        prefix = "" if axis in "XYZ" else "HEXCAL_"
-        section = f"AXIS_{axis}"
-        lo, hi = ini.number(section, prefix + "MIN_LIMIT"), ini.number(section, prefix + "MAX_LIMIT")
-        if lo is None or hi is None or lo > hi:
-            return None
-        box.append((lo, hi))
-    arr = np.array(box, dtype=float)
-    arr[:3] *= scale
-    arr[3:] = np.deg2rad(arr[3:])
-    return arr
-
-
 def _names(keys: Sequence[tuple[str, int, int]]) -> str:
     return ", ".join(f"{part}.{joint}.{'xyz'[axis]}" for part, joint, axis in keys)
 
@@ -263,7 +239,10 @@ def import_linuxcnc(
     warnings : list of str
         One line each, for the user.
     """
+    from scipy.spatial.transform import Rotation
+
     from hexcal.core.kinematics import inverse_kinematics
+    from hexcal.io.linuxcnc_own import exported_name, exported_sequence
 
     ini = parse_ini(ini_text, ini_name) if ini_text is not None else None
     hal = parse_hal(hal_text, hal_name, ini)
@@ -435,17 +414,11 @@ def import_linuxcnc(
 
     if name is None:
         machine = ini.get("EMC", "MACHINE") if ini is not None else None
-        exported = _EXPORT_NAME.search(ini_text or "") or _EXPORT_NAME.search(hal_text)
-        name = machine[0] if machine else exported["name"] if exported else "linuxcnc"
-    sequence = _EXPORT_EULER.search(ini_text or "")
-    if sequence is not None and sequence["euler"] != LINUXCNC_EULER:
-        # hexcal's own export of a geometry in another sequence: back in that sequence, with
-        # the angle box it keeps for hexcal (HEXCAL_MIN_LIMIT/HEXCAL_MAX_LIMIT of [AXIS_A..C])
-        from scipy.spatial.transform import Rotation
-
-        euler = sequence["euler"]
+        name = machine[0] if machine else exported_name(hal_text, ini_text) or "linuxcnc"
+    own = exported_sequence(ini_text, ini, scale)
+    if own is not None:  # hexcal's own export of a geometry in another sequence: back in it
+        euler, workspace = own
         home[3:] = Rotation.from_euler(LINUXCNC_EULER, home[3:]).as_euler(euler) + 0.0  # no -0
-        workspace = _own_box(ini, scale) if ini is not None else None
         geometry_mm = geometry_mm.replace(euler=euler)
     geometry = geometry_mm.replace(
         initial_leg_lengths=l0,
@@ -456,6 +429,7 @@ def import_linuxcnc(
         name=name,
     )
     if ini is not None:  # joint compensation tables: a stroke leg model (hexcal.io.linuxcnc_comp)
+        from hexcal.io.linuxcnc_checks import check_comp_tables, check_imported_model, comp_file_tables
         from hexcal.io.linuxcnc_comp import import_comp_tables
 
         tables = comp_file_tables(ini, comp_reader)
@@ -465,106 +439,3 @@ def import_linuxcnc(
         if tables:
             check_imported_model(geometry, ini.name, tables)
     return geometry, warnings
-
-
-#: How far (mm) the imported leg model may miss a compensation table's trim before the tables
-#: are refused as not describing it: the tables' own trims are a few tenths of a millimetre; a
-#: model that misses by a millimetre makes LinuxCNC and hexcal disagree on every move there.
-TABLE_MISS_LIMIT = 1.0
-
-
-def comp_file_tables(ini: IniFile, read: Callable[[str], str] | None) -> list[tuple[str, Any]]:
-    """``(file name, table)`` of each joint's ``COMP_FILE`` (none when a joint lacks one or no
-    reader is given: :func:`hexcal.io.linuxcnc_comp.import_comp_tables` says why)."""
-    from hexcal.io.linuxcnc_comp import parse_comp_table
-
-    files = [ini.get(f"JOINT_{n}", "COMP_FILE") for n in range(6)]
-    if read is None or any(f is None for f in files):
-        return []
-    out = []
-    for n, (value, _) in enumerate(files):  # type: ignore[misc]
-        kind = ini.number(f"JOINT_{n}", "COMP_FILE_TYPE")
-        kind = 0 if kind is None else kind
-        if kind not in (0, 1):
-            return []  # refused by the import, naming the key
-        out.append((value.strip(), parse_comp_table(read(value.strip()), value.strip(), int(kind))))
-    return out
-
-
-def check_comp_tables(ini: IniFile, tables: list[tuple[str, Any]], geometry: Geometry) -> None:
-    """Refuse (one line) compensation tables that describe no leg, before a model is fitted:
-
-    - a trim larger than the leg's travel (its joint limits' range, else the table's span);
-    - motor positions (joint position + trim) that do not increase with the joint position:
-      a leg's reading grows with its length;
-    - a ``HEXCAL_STROKE`` that does not cover the table's readings (the export widens the
-      stroke only to the home switch's reading 0).
-
-    ``geometry`` gives the joints' ``HOME_OFFSET`` (its ``l0``, reading 0) and gains.
-    """
-    limits = geometry.leg_length_limits
-    for n, (name, table) in enumerate(tables):
-        travel = (limits[1] - limits[0]) if limits is not None else float(np.ptp(table.nominal))
-        big = np.flatnonzero(np.abs(table.trim) > travel)
-        if big.size:
-            k = int(big[0])
-            raise LinuxCNCFormatError(
-                f"{name}: entry {k + 1} (joint position {table.nominal[k]:g}): a trim of "
-                f"{table.trim[k]:g} mm, more than the leg's whole travel ({travel:g} mm): the table does "
-                "not describe a leg (check COMP_FILE_TYPE: 0 positions reached, 1 trims)"
-            )
-        motor = table.nominal + table.trim
-        back = np.flatnonzero(np.diff(motor) <= 0)
-        if back.size:
-            k = int(back[0])
-            raise LinuxCNCFormatError(
-                f"{name}: entries {k + 1} and {k + 2} (joint positions {table.nominal[k]:g}, "
-                f"{table.nominal[k + 1]:g}): the motor would go back from {motor[k]:g} to "
-                f"{motor[k + 1]:g} mm while the joint extends; the table does not describe a leg"
-            )
-        given = ini.numbers(f"JOINT_{n}", "HEXCAL_STROKE")
-        if given is not None and len(given) == 2:
-            home = geometry.initial_leg_lengths[n]  # HOME_OFFSET: the joint position at reading 0
-            readings = (motor - home - np.interp(home, table.nominal, table.trim)) / geometry.leg_gains[n]
-            low, high = min(given[0], 0.0), given[1]
-            slack = 1e-6 * (1.0 + abs(high - low))
-            if readings.min() < low - slack or readings.max() > high + slack:
-                raise LinuxCNCFormatError(
-                    f"{ini.name}: [JOINT_{n}] HEXCAL_STROKE = {given[0]:g} {given[1]:g} does not cover the "
-                    f"readings of {name} ({readings.min():.6g} to {readings.max():.6g}): give the stroke the "
-                    "table was made from (and check COMP_FILE_TYPE: 0 positions reached, 1 trims)"
-                )
-
-
-def check_imported_model(geometry: Geometry, ini_name: str, tables: list[tuple[str, Any]]) -> None:
-    """Refuse (one line) a leg model fitted to compensation tables that the commands reading the
-    geometry would refuse (``ik``, ``fk``, ``export``: a length without a reading on a leg's
-    limits), or that misses, at an entry within the limits, the trim LinuxCNC applies there by
-    more than :data:`TABLE_MISS_LIMIT`."""
-    model, block = geometry.leg_model, geometry.leg_block()
-    limits = geometry.leg_length_limits
-    for n, (name, table) in enumerate(tables):
-        inside = table.nominal
-        if limits is not None:
-            inside = inside[(inside >= limits[0]) & (inside <= limits[1])]
-        if not inside.size:
-            continue
-        full = np.tile(geometry.initial_leg_lengths, (len(inside), 1))
-        full[:, n] = inside
-        try:
-            dl = model.readings(block, full)[:, n]
-        except GeometryError as exc:
-            raise LinuxCNCFormatError(
-                f"{ini_name}: the COMP_FILE tables do not describe a leg: under the stroke model fitted to "
-                f"them, {exc} (check COMP_FILE_TYPE: 0 positions reached, 1 trims)"
-            ) from None
-        trim = geometry.initial_leg_lengths[n] + geometry.leg_gains[n] * dl - inside
-        want = np.interp(inside, table.nominal, table.trim)
-        miss = np.abs(trim - want)
-        k = int(np.argmax(miss))
-        if miss[k] > TABLE_MISS_LIMIT:
-            raise LinuxCNCFormatError(
-                f"{name}: at joint position {inside[k]:g} LinuxCNC applies the trim {want[k]:g} mm, the "
-                f"stroke model fitted to the tables {trim[k]:.6g} mm: the tables do not describe a leg of "
-                "this model (check COMP_FILE_TYPE and HEXCAL_STROKE_DEGREE)"
-            )
