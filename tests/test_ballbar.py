@@ -155,8 +155,8 @@ def test_gauges_are_the_two_frames_and_fixed_points_leave_named_rotations(paper)
 
 
 @pytest.mark.parametrize("kind", ["paper", pytest.param("general", marks=pytest.mark.slow)])  # paper: fast
-def test_identify_recovers_the_machine_up_to_the_gauges(kind: str) -> None:
-    c = campaign(kind)
+def test_identify_recovers_the_machine_up_to_the_gauges(kind: str, request) -> None:
+    c = request.getfixturevalue("paper") if kind == "paper" else campaign(kind)  # paper: built once
     data = sessions(c, c.circles, NOISE, 21)
     result = fit(c, data, verdict=True, with_bound=True)
     assert len(result.gauges) == 12 and result.rank == len(result.names) - 12

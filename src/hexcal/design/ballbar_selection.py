@@ -4,9 +4,11 @@
 of several pivots (:func:`hexcal.design.ballbar_plan.ballbar_circles`), greedily by the
 A-criterion of the machine's joints and ``l0`` (the Cramér–Rao covariance of the distance data,
 pose nuisances eliminated, gauge-fixed by hexcal's convention); a new pivot comes with its
-:func:`starters`, and is opened when the plan completed with it predicts a lower position error
-than the plan completed without it. :func:`circle_accuracy` gives the predicted accuracy of a
-choice (the platform pose error over the workspace after calibration, up to the frames).
+:func:`starters`. Two plans are made, the greedy one (the move that lowers the criterion most
+per circle) and one that opens a pivot when the plan completed with it predicts a lower
+position error than without it; the one predicting the lower position error is returned.
+:func:`circle_accuracy` gives the predicted accuracy of a choice (the platform pose error over
+the workspace after calibration, up to the frames).
 """
 
 from __future__ import annotations
@@ -142,7 +144,10 @@ def select_circles(
     quantities undetermined), while there is room for them. Every move is scored at once (a
     batch of information matrices) by the trace of the covariance of the machine's
     parameters, every used pivot's setup fitted too; the move that lowers it most per circle
-    is made (the first: the lowest trace). Returns the circles in the order chosen.
+    is made (the first: the lowest trace). A second plan opens a pivot whenever the plan
+    completed with it predicts a lower position error than without it; of the two, the plan
+    with the lower predicted position error (:func:`selection_weight`) is returned, in the
+    order chosen. Refused: a zero noise, a problem over the memory budget.
     """
     if not 1 <= n <= circles.n_circles:
         raise InputError(f"--circles {n}: choose between 1 and {circles.n_circles} circles")
@@ -172,26 +177,28 @@ def select_circles(
         return [[c] for c in range(circles.n_circles) if c not in chosen and int(circles.pivot[c]) in used]
 
     def ahead(chosen: list[int], base: NDArray, steps: int) -> float:
-        """The predicted position error (mean square, mm²) after ``steps`` more greedy
-        circles at the pivots in use (inf: too few left)."""
-        chosen = list(chosen)
-        for _ in range(steps):
-            moves = singles(chosen)
-            if not moves:
-                return np.inf
-            best = moves[int(np.argmin(score(moves, base)))]
-            chosen += best
-            base = base + infos[best[0]]
+        """The predicted position error (mean square, mm²) after ``steps`` more circles at the
+        pivots in use: those that lower the criterion most, each judged alone (one batch, not
+        ``steps`` greedy rounds); inf when too few are left."""
+        moves = singles(chosen)
+        if len(moves) < steps:
+            return np.inf
+        if steps:
+            best = np.argsort(score(moves, base), kind="stable")[:steps]
+            base = base + infos[[moves[k][0] for k in best]].sum(axis=0)
         return float(_criterion(base[None], proj, position)[0])
 
-    chosen: list[int] = []
-    total = np.zeros_like(infos[0])
-    history: list[float] = []
-    done = [0]
-    with task("circles", n) as step:
+    def plan(lookahead: bool, step: Any) -> tuple[list[int], list[float], NDArray]:
+        """The greedy plan: each step adds one circle at a pivot in use or a new pivot with its
+        starters. Without ``lookahead`` the move lowering the criterion most per circle is made;
+        with it, a new pivot is opened when the plan completed with it predicts the lower
+        position error (a pivot's starters lower the criterion less at once than as many
+        circles at the pivots in use, and often more in the end)."""
+        chosen: list[int] = []
+        total = np.zeros_like(infos[0])
+        history: list[float] = []
+        current = np.inf
         while len(chosen) < n:
-            step(len(chosen) - done[0])
-            done[0] = len(chosen)
             used = {int(circles.pivot[c]) for c in chosen}
             room = n - len(chosen)
             opens = [group for p, group in first.items() if p not in used and len(group) <= room]
@@ -199,22 +206,27 @@ def select_circles(
             if not moves:  # every pivot used up: any circle left
                 moves = [[c] for c in range(circles.n_circles) if c not in chosen]
             scores = score(moves, total)
-            best = int(np.argmin(scores))
+            cost = np.array([len(m) for m in moves], dtype=float)
+            best = int(np.argmax(-scores if not np.isfinite(current) else (current - scores) / cost))
             one = [k for k, m in enumerate(moves) if len(m) == 1]
             groups = [k for k, m in enumerate(moves) if len(m) > 1]
             opening = min(groups, key=lambda k: scores[k], default=None)
-            if chosen and one and opening is not None:
-                # a pivot's starters lower the criterion less at once than as many circles at the
-                # pivots in use, and often more in the end: the plan is completed both ways (greedy
-                # circles at the pivots then in use) and the lower predicted position error decides
+            if lookahead and chosen and one and opening is not None:
                 group = moves[opening]
                 stay = ahead(chosen, total, room)
                 go = ahead(chosen + group, total + infos[group].sum(axis=0), room - len(group))
                 best = opening if go < stay else min(one, key=lambda k: scores[k])
             chosen += moves[best]
             total = total + infos[moves[best]].sum(axis=0)
-            history += [float(scores[best])] * len(moves[best])
-        step(len(chosen) - done[0])
+            current = float(scores[best])
+            history += [current] * len(moves[best])
+            step(len(moves[best]))
+        return chosen, history, total
+
+    with task("circles", 2 * n) as step:
+        plans = [plan(lookahead, step) for lookahead in (False, True)]
+    errors = [float(_criterion(total[None], proj, position)[0]) for _, _, total in plans]
+    chosen, history, _ = plans[int(np.argmin(errors))]  # the plan that predicts better
     return CircleSelection(np.asarray(chosen, dtype=np.intp), circles.subset(chosen), tuple(history))
 
 
