@@ -52,7 +52,7 @@ def test_library_loops_report_through_it() -> None:
         circles, _ = ballbar_circles(g, SETUP, np.array([[0, 0, 750.0]]), tilt=TILT, points=3)
         select_circles(g, circles, 6, NOISE)
         map_trials(_squares, 0, 4, chunk_size=2)
-    assert "hexcal: circles: done, 6/6" in " ".join(lines)
+    assert "hexcal: circle plans: done, 12/12" in " ".join(lines)
     assert any(line.startswith("hexcal: trials: 2/4") for line in lines) and "trials: done, 4/4" in lines[-1]
 
 
@@ -79,4 +79,4 @@ def test_the_command_line_turns_lines_on_for_a_terminal_or_when_asked(monkeypatc
     done = run("select", "--geometry", "paper-hmt", "--ballbar", bar, "--pivots", "0,0,750", "--points", 3,
                "--circles", 6, "--out", tmp_path / "s.csv")  # fmt: skip
     assert done.code == 0, done.err
-    assert ("hexcal: circles: done, 6/6" in done.err) is shown
+    assert ("hexcal: circle plans: done, 12/12" in done.err) is shown

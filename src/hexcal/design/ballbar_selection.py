@@ -223,7 +223,7 @@ def select_circles(
             step(len(moves[best]))
         return chosen, history, total
 
-    with task("circles", 2 * n) as step:
+    with task("circle plans", 2 * n) as step:  # two plans of n circles
         plans = [plan(lookahead, step) for lookahead in (False, True)]
     errors = [float(_criterion(total[None], proj, position)[0]) for _, _, total in plans]
     chosen, history, _ = plans[int(np.argmin(errors))]  # the plan that predicts better
