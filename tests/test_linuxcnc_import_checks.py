@@ -118,22 +118,3 @@ def test_what_describes_no_leg_is_refused_in_one_line(exported: Path, tmp_path: 
     done = _import(folder, tmp_path / "g.yaml")
     assert done.code == 1 and message in done.err, done.err
     assert done.err.count("\n") == 1 and not (tmp_path / "g.yaml").exists()
-
-
-def test_a_geometry_in_another_sequence_comes_back_whole(tmp_path: Path) -> None:
-    """``euler: XYZ`` lost its workspace box (its angles are not a box of G-code's A B C, so
-    the export wrote none) and every import lost the name; both come back, in the sequence
-    exported, the home pose's angles converted back from A B C."""
-    machine = preset("paper-hmt")
-    assert machine.euler == "XYZ"
-    home = machine.home_pose.copy()
-    home[3:] = np.deg2rad([3.0, -2.0, 5.0])
-    save_geometry(machine.replace(home_pose=home), tmp_path / "g.yaml")
-    assert run("export", "linuxcnc", "--geometry", tmp_path / "g.yaml", "--out", tmp_path / "x").code == 0
-    done = _import(tmp_path / "x", tmp_path / "back.yaml")
-    assert done.code == 0 and "(euler XYZ, as hexcal exported it" in done.out, done.err
-    back = load_geometry(tmp_path / "back.yaml")
-    assert back.name == "paper-hmt" and back.euler == "XYZ"
-    np.testing.assert_allclose(back.workspace, machine.workspace, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(back.home_pose, home, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(back.base_joints, machine.base_joints, rtol=0, atol=1e-9)

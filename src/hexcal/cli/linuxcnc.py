@@ -171,9 +171,5 @@ def cmd_import(args: argparse.Namespace) -> None:
         _warn(warning)
     print(
         f"wrote the geometry of {args.hal}{' and ' + args.ini if args.ini else ''} to {out} "
-        + (
-            "(euler xyz: hexcal's a b c are G-code A B C in radians)"
-            if geometry.euler == "xyz"
-            else f"(euler {geometry.euler}, as hexcal exported it: hexcal's a b c are not G-code A B C)"
-        )
+        + "(euler xyz: hexcal's a b c are G-code A B C in radians)"
     )

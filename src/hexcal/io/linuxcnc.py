@@ -96,8 +96,7 @@ _INI_WORDS = {"LINEAR_UNITS = mm", "ANGULAR_UNITS = degree", "COMP_FILE_TYPE = 1
     f"COMP_FILE = hexcal-comp-{n}.tbl" for n in range(6)
 }
 _INI_KEY = re.compile(
-    r"(HOME|HOME_OFFSET|MIN_LIMIT|MAX_LIMIT|HEXCAL_LEG_GAIN|HEXCAL_STROKE|HEXCAL_STROKE_DEGREE"
-    r"|HEXCAL_MIN_LIMIT|HEXCAL_MAX_LIMIT)"
+    r"(HOME|HOME_OFFSET|MIN_LIMIT|MAX_LIMIT|HEXCAL_LEG_GAIN|HEXCAL_STROKE|HEXCAL_STROKE_DEGREE)"
     r" = (?P<v>\S+( \S+)*)"
 )
 
@@ -350,17 +349,12 @@ def export_linuxcnc(
                     f"MAX_LIMIT = {_num(hi)}",
                     "",
                 ]
-        else:  # not a box of A B C: kept for `hexcal import linuxcnc` only
+        else:
             ini += [
-                "# [AXIS_A], [AXIS_B], [AXIS_C]: no MIN_LIMIT/MAX_LIMIT; the workspace's angle ranges are",
-                f"# in the sequence {geometry.euler!r}, not a box in LinuxCNC's A B C. HEXCAL_MIN_LIMIT and",
-                "# HEXCAL_MAX_LIMIT (degrees, that sequence) are for `hexcal import linuxcnc`",
+                "# [AXIS_A], [AXIS_B], [AXIS_C]: not written; the workspace's angle ranges are in the",
+                f"# sequence {geometry.euler!r}, which is not a box in LinuxCNC's A B C",
                 "",
             ]
-            for k, axis in enumerate("ABC"):
-                lo, hi = np.rad2deg(box[k + 3])
-                ini += [f"[AXIS_{axis}]", f"HEXCAL_MIN_LIMIT = {_num(lo)}", f"HEXCAL_MAX_LIMIT = {_num(hi)}"]
-                ini.append("")
     files = {HAL_FILE: "\n".join(hal).rstrip("\n") + "\n", INI_FILE: "\n".join(ini).rstrip("\n") + "\n"}
     for file_name, text in files.items():
         check_export_lines(file_name, text)

@@ -239,10 +239,7 @@ def import_linuxcnc(
     warnings : list of str
         One line each, for the user.
     """
-    from scipy.spatial.transform import Rotation
-
     from hexcal.core.kinematics import inverse_kinematics
-    from hexcal.io.linuxcnc_own import exported_name, exported_sequence
 
     ini = parse_ini(ini_text, ini_name) if ini_text is not None else None
     hal = parse_hal(hal_text, hal_name, ini)
@@ -414,12 +411,7 @@ def import_linuxcnc(
 
     if name is None:
         machine = ini.get("EMC", "MACHINE") if ini is not None else None
-        name = machine[0] if machine else exported_name(hal_text, ini_text) or "linuxcnc"
-    own = exported_sequence(ini_text, ini, scale)
-    if own is not None:  # hexcal's own export of a geometry in another sequence: back in it
-        euler, workspace = own
-        home[3:] = Rotation.from_euler(LINUXCNC_EULER, home[3:]).as_euler(euler) + 0.0  # no -0
-        geometry_mm = geometry_mm.replace(euler=euler)
+        name = machine[0] if machine else "linuxcnc"
     geometry = geometry_mm.replace(
         initial_leg_lengths=l0,
         leg_gains=gains,
