@@ -189,11 +189,47 @@ def without_rigid_motions(
     the workspace (gauge freedoms), so the projection is the one that minimises the pose error
     over the test poses (angles weighted by the platform radius, so a milliradian at the edge
     of the platform counts as its displacement)."""
+    proj = rigid_projection(e_pos, e_rot, rigid, geometry)
+    return proj @ covariance @ proj.T
+
+
+def rigid_projection(
+    e_pos: NDArray[np.float64], e_rot: NDArray[np.float64], rigid: NDArray[np.float64], geometry: Geometry
+) -> NDArray[np.float64]:
+    """The projection ``(n, n)`` of :func:`without_rigid_motions` (``cov -> P cov Pᵀ``)."""
     radius = float(np.max(np.linalg.norm(geometry.platform_joints[:, :2], axis=1)))
     metric = np.einsum("tip,tiq->pq", e_pos, e_pos) + radius**2 * np.einsum("tip,tiq->pq", e_rot, e_rot)
     mg = metric @ rigid
-    proj = np.eye(len(covariance)) - rigid @ np.linalg.pinv(rigid.T @ mg) @ mg.T
-    return proj @ covariance @ proj.T
+    return np.eye(len(rigid)) - rigid @ np.linalg.pinv(rigid.T @ mg) @ mg.T
+
+
+def position_metric(
+    geometry: Geometry,
+    mask: ArrayLike | None = None,
+    rigid: ArrayLike | None = None,
+    n_random: int = 200,
+    seed: int = 0,
+) -> NDArray[np.float64]:
+    """The matrix ``W`` (n, n) whose ``trace(Σθ W)`` is the square of the predicted position
+    RMS (mm²) of :func:`predicted_pose_accuracy` for a parameter covariance ``Σθ``: a
+    criterion of what a calibration will deliver, linear in the covariance (so planning can
+    score many candidate covariances at once).
+
+    >>> from hexcal.core import preset
+    >>> machine, cov = preset("paper-hmt"), np.eye(42) * 1e-4
+    >>> w = position_metric(machine)
+    >>> bool(np.isclose(np.sqrt(np.trace(cov @ w)), predicted_pose_accuracy(machine, cov)["position_rms_mm"]))
+    True
+    """
+    tp = accuracy_test_poses(geometry, n_random, seed)
+    e = pose_error_map(geometry, tp, mask)
+    e_pos = e[:, :3]
+    weight = np.einsum("tip,tiq->pq", e_pos, e_pos) / len(tp)
+    if rigid is None or not np.size(rigid):
+        return weight
+    e_rot = np.einsum("tij,tjk->tik", rotation_vector_map(geometry, tp), e[:, 3:])
+    proj = rigid_projection(e_pos, e_rot, np.asarray(rigid, dtype=float), geometry)
+    return proj.T @ weight @ proj
 
 
 def accuracy_geometry(geometry: Geometry, poses: ArrayLike | None) -> tuple[Geometry, str]:

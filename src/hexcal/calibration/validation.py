@@ -263,6 +263,26 @@ def validate(
     return _with_expected(_merge(parts, m, record), geometry, whole.calibrated_instruments()[0], noise, folds)
 
 
+def check_folds(data: Any, instrument: MeasurementModel | None = None, folds: int | None = None) -> None:
+    """Refuse ``folds`` given for a session with nothing to re-register (the full pose, or an
+    instrument whose quantities are all fixed): no fold would be drawn, and the option would be
+    ignored silently. ``None`` (not given) is always accepted.
+
+    Raises
+    ------
+    ValidationError
+        Naming what the instrument is and why the folds cannot act.
+    """
+    if folds is None:
+        return
+    inst = as_sessions(data, instrument)[0].instrument
+    if not (inst.unregistered or quantity_mask(inst).any()):
+        raise ValidationError(
+            f"--folds {folds}: {inst.describe()} has nothing to re-register (no free frame, tool or "
+            "other quantity), so the poses are not dealt into folds; leave --folds out"
+        )
+
+
 def _with_expected(
     result: ValidationResult,
     geometry: Geometry,

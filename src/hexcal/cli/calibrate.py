@@ -197,12 +197,13 @@ def cmd_validate(args: argparse.Namespace) -> None:
     """Prediction errors of a calibration (and optionally the nominal geometry) on held-out data;
     warns of readings beyond a stroke model's calibrated stroke."""
     from hexcal.calibration import validate
+    from hexcal.calibration.validation import check_folds
     from hexcal.core import stroke_excess
     from hexcal.io import write_table
     from hexcal.report import render, validation_dict, validation_json, validation_table
 
     check_outputs(args.out, args.html, args.json, args.polar)
-    if args.folds < 2:
+    if args.folds is not None and args.folds < 2:
         raise CommandError(f"--folds must be at least 2, got {args.folds}")
     geometry = load_geometry(args.geometry, args.euler)
     sessions = read_sessions(args, geometry)
@@ -212,7 +213,8 @@ def cmd_validate(args: argparse.Namespace) -> None:
     from hexcal.cli.iso import check_iso, iso_page, iso_results, iso_validations
 
     check_iso(args, session)
-    options = {"folds": args.folds, "seed": args.seed}
+    check_folds(session, folds=args.folds)  # the library says when the folds cannot act
+    options = {"seed": args.seed} if args.folds is None else {"folds": args.folds, "seed": args.seed}
     nominal_geometry = load_geometry(args.nominal, geometry.euler) if args.nominal else None
     checked = iso_validations(args, geometry, session, nominal_geometry)
     if checked is not None:
@@ -403,8 +405,9 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--folds",
         type=int,
-        default=5,
-        help="folds of the cross-validated re-registration of a free frame or tool (default 5)",
+        default=None,
+        help="folds of the cross-validated re-registration of a free frame or tool (default 5; refused "
+        "when nothing is re-registered)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the poses' folds (default 0)")
     p.add_argument("--html", metavar="FILE", help="save a self-contained HTML report with figures")

@@ -72,7 +72,8 @@ def iso_validations(args: argparse.Namespace, geometry: Any, session: Any, nomin
     from hexcal.calibration import iso_validations as validations
 
     test = "iso230-4" if args.iso230_4 else "iso9283"
-    return validations(geometry, session, nominal, test=test, folds=args.folds, seed=args.seed)
+    folds = {} if args.folds is None else {"folds": args.folds}
+    return validations(geometry, session, nominal, test=test, seed=args.seed, **folds)
 
 
 def iso_results(args: argparse.Namespace, session: Any, checked: Any) -> dict[str, Any] | None:

@@ -177,5 +177,5 @@ def cmd_import(args: argparse.Namespace) -> None:
         _warn(warning)
     print(
         f"wrote the geometry of {args.hal}{' and ' + args.ini if args.ini else ''} to {out} "
-        "(euler xyz: hexcal's a b c are G-code A B C in radians)"
+        + "(euler xyz: hexcal's a b c are G-code A B C in radians)"
     )

@@ -351,8 +351,10 @@ def plan_selection(
     import time
 
     from hexcal.core.machine import leg_columns
+    from hexcal.core.noise import require_noise
     from hexcal.design.instrument_table import default_flags
 
+    require_noise(noise, "every predicted accuracy")
     flags = default_flags(geometry) if mask is None else np.asarray(mask, dtype=bool)
     per_leg = int(np.max(flags[leg_columns(geometry.leg_model)].sum(axis=1)))
     if n < per_leg:

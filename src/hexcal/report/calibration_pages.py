@@ -30,6 +30,7 @@ from hexcal.report.html import (
     inputs_table,
     key_value_table,
     section,
+    to_precision,
     verdict_block,
 )
 from hexcal.report.units import (
@@ -278,7 +279,9 @@ def _sessions_section(result: Mapping[str, Any]) -> str:
 
 def parameter_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
     """Rows ``(name, unit, nominal, identified, change, stderr, bound)`` of the parameter
-    table, in the display unit of each parameter (degrees for instrument angles)."""
+    table, in the display unit of each parameter (degrees for instrument angles); the
+    identified value and the change shown to the precision of the standard error (its two
+    significant digits: :func:`hexcal.report.html.to_precision`)."""
     names = result.get("names") or list(result.get("parameters", {}))
     start, values = result.get("start", {}), result.get("parameters", {})
     stderr, bound = result.get("stderr", {}), result.get("bound") or {}
@@ -287,6 +290,9 @@ def parameter_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
         value, nominal = values.get(name), start.get(name)
         change = value - nominal if value is not None and nominal is not None else None
         shown = [display(name, v) for v in (nominal, value, change, stderr.get(name), bound.get(name))]
+        error = shown[3]
+        shown[1], shown[2] = to_precision(shown[1], error), to_precision(shown[2], error)
+        shown[3] = to_precision(error, error)
         rows.append((name, UNIT_WORDS[parameter_unit(name)], *shown))
     return rows
 
