@@ -80,3 +80,23 @@ def test_the_command_line_turns_lines_on_for_a_terminal_or_when_asked(monkeypatc
                "--circles", 6, "--out", tmp_path / "s.csv")  # fmt: skip
     assert done.code == 0, done.err
     assert ("hexcal: circle plans: done, 12/12" in done.err) is shown
+
+
+def test_a_calibration_says_how_far_it_is():
+    # the workflow's stages and the leg model's cross-validation fits, one line each with no
+    # delay (the command line shows them after 3 s, every 5 s)
+    import hexcal
+    from hexcal.core.progress import reporting
+    from hexcal.core.workspace import random_poses
+    from hexcal.simulation import simulate_session
+
+    nominal = hexcal.preset("paper-hmt")
+    session = simulate_session(
+        nominal, hexcal.preset("paper-hmt-true"), None, random_poses(nominal, 30, 1), rng=2
+    )
+    lines: list[str] = []
+    with reporting(lines.append, delay=0.0, every=0.0):
+        hexcal.calibrate(nominal, [session], leg_model="auto")
+    fits = [line for line in lines if "leg model: cross-validation fits:" in line]
+    assert fits and fits[-1].startswith("hexcal: calibration: leg model: cross-validation fits: done")
+    assert lines[-1].startswith("hexcal: calibration: done")

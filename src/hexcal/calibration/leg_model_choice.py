@@ -48,6 +48,7 @@ import numpy as np
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.legs import LEG_MODELS, LegModel, LinearLegs
+from hexcal.core.progress import task
 from hexcal.core.stroke_legs import (
     DEFAULT_DEGREE,
     StrokeExcess,
@@ -321,8 +322,6 @@ def choose_leg_model(
     -------
     LegModelChoice
     """
-    from hexcal.calibration.identify import estimate
-    from hexcal.calibration.validation import validate
 
     sessions = list(sessions)
     candidates = list(candidates)
@@ -340,40 +339,80 @@ def choose_leg_model(
     kinds = np.array([split.kind for split in splits for _ in split.held])
     scores: dict[str, dict[str, Any]] = {}
     parts: dict[str, np.ndarray] = {}
-    for spec in candidates:
-        legs, positions, angles, part_mse = [], [], [], []
-        n_free = 0
-        noises = _session_noises(spec, start, sessions, method, fit, fix, noise)
-        for train, held, _, parents in splits:
-            geometry = start_for(spec, start, train)  # the stroke of the training poses
-            groups = fit_for(fit, geometry.leg_model)
-            own = [noises[j] for j in parents]
-            own = own[0] if len(own) == 1 or any(n is None for n in own) else own
-            result = estimate(
-                geometry, train, method, noise=own, fit=groups, fix=fix, with_bound=False, verdict=False
-            )
-            n_free = int(sum(n in set(geometry.machine_names()) for n in result.names))
-            for session in held:
-                v = validate(result.geometry, session, folds=folds, seed=seed)
-                res = v.leg_residuals[np.isfinite(v.leg_residuals)]
-                legs.append(res)
-                part_mse.append(float(np.mean(res**2)))
-                positions.append(v.position_error[np.isfinite(v.position_error)])
-                angles.append(v.orientation_error[np.isfinite(v.orientation_error)])
-        parts[spec] = np.array(part_mse)
-        scores[spec] = {
-            "leg_rms_mm": _rms(legs),
-            "within_leg_rms_mm": _rms([r for r, k in zip(legs, kinds, strict=True) if k == "within"]),
-            "position_rms_mm": _rms(positions),
-            "orientation_rms_rad": _rms(angles),
-            "part_leg_rms_mm": [float(np.sqrt(v)) for v in part_mse],
-            "parameters": n_free,
-        }
-        if np.any(kinds == "ends"):
-            scores[spec]["ends_leg_rms_mm"] = _rms(
-                [r for r, k in zip(legs, kinds, strict=True) if k == "ends"]
+    candidates = list(candidates)
+    with task("leg model: cross-validation fits", total=len(candidates) * len(splits)) as step:
+        for spec in candidates:
+            _score(
+                spec,
+                start,
+                sessions,
+                splits,
+                kinds,
+                scores,
+                parts,
+                method,
+                fit,
+                fix,
+                noise,
+                folds,
+                seed,
+                step,
             )
     return LegModelChoice(_decide(scores, parts), scheme, scores, folds, seed, beyond)
+
+
+def _score(
+    spec: str,
+    start: Geometry,
+    sessions: list[Session],
+    splits: list[Split],
+    kinds: np.ndarray,
+    scores: dict[str, dict[str, Any]],
+    parts: dict[str, np.ndarray],
+    method: str,
+    fit: Any,
+    fix: Iterable[str],
+    noise: Any,
+    folds: int,
+    seed: int,
+    step: Any,
+) -> None:
+    """One candidate fitted on every part and judged on what each held out: its ``scores`` and
+    its parts' mean squared leg residuals (``step()`` after each part)."""
+    from hexcal.calibration.identify import estimate
+    from hexcal.calibration.validation import validate
+
+    legs, positions, angles, part_mse = [], [], [], []
+    n_free = 0
+    noises = _session_noises(spec, start, sessions, method, fit, fix, noise)
+    for train, held, _, parents in splits:
+        geometry = start_for(spec, start, train)  # the stroke of the training poses
+        groups = fit_for(fit, geometry.leg_model)
+        own = [noises[j] for j in parents]
+        own = own[0] if len(own) == 1 or any(n is None for n in own) else own
+        result = estimate(
+            geometry, train, method, noise=own, fit=groups, fix=fix, with_bound=False, verdict=False
+        )
+        n_free = int(sum(n in set(geometry.machine_names()) for n in result.names))
+        for session in held:
+            v = validate(result.geometry, session, folds=folds, seed=seed)
+            res = v.leg_residuals[np.isfinite(v.leg_residuals)]
+            legs.append(res)
+            part_mse.append(float(np.mean(res**2)))
+            positions.append(v.position_error[np.isfinite(v.position_error)])
+            angles.append(v.orientation_error[np.isfinite(v.orientation_error)])
+        step()
+    parts[spec] = np.array(part_mse)
+    scores[spec] = {
+        "leg_rms_mm": _rms(legs),
+        "within_leg_rms_mm": _rms([r for r, k in zip(legs, kinds, strict=True) if k == "within"]),
+        "position_rms_mm": _rms(positions),
+        "orientation_rms_rad": _rms(angles),
+        "part_leg_rms_mm": [float(np.sqrt(v)) for v in part_mse],
+        "parameters": n_free,
+    }
+    if np.any(kinds == "ends"):
+        scores[spec]["ends_leg_rms_mm"] = _rms([r for r, k in zip(legs, kinds, strict=True) if k == "ends"])
 
 
 def _session_noises(
