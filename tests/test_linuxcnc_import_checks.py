@@ -5,6 +5,7 @@ range. Each is refused in one line, and nothing is written."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -102,12 +103,16 @@ def _limits_crossed(folder: Path) -> None:
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        (_point_of_a_million, "hexcal-comp-0.tbl: entry 26 (joint position 700): a trim of 1e+06 mm"),
+        # the entry's number and the trim depend on the table's layout (its points over the stroke)
+        (_point_of_a_million, r"hexcal-comp-0\.tbl: entry \d+ \(joint position 700\): a trim of 1e\+06 mm"),
         (_motor_back, "the motor would go back from"),
-        (_stroke_of_nothing, "[JOINT_0] HEXCAL_STROKE = 0 1e-09 does not cover the readings of"),
-        (_type_0_mix_up, "a trim of 605.26 mm, more than the leg's whole travel"),
+        (_stroke_of_nothing, re.escape("[JOINT_0] HEXCAL_STROKE = 0 1e-09 does not cover the readings of")),
+        (_type_0_mix_up, r"a trim of [\d.]+ mm, more than the leg's whole travel"),
         (_sawtooth, "the tables do not describe a leg of this model"),
-        (_limits_crossed, "[JOINT_0] MIN_LIMIT 1200 exceeds its MAX_LIMIT 1100: the joint has no range"),
+        (
+            _limits_crossed,
+            re.escape("[JOINT_0] MIN_LIMIT 1200 exceeds its MAX_LIMIT 1100: the joint has no range"),
+        ),
     ],
 )
 def test_what_describes_no_leg_is_refused_in_one_line(exported: Path, tmp_path: Path, change, message):
@@ -116,5 +121,5 @@ def test_what_describes_no_leg_is_refused_in_one_line(exported: Path, tmp_path: 
     folder = _copy(exported, tmp_path)
     change(folder)
     done = _import(folder, tmp_path / "g.yaml")
-    assert done.code == 1 and message in done.err, done.err
+    assert done.code == 1 and re.search(message, done.err), done.err
     assert done.err.count("\n") == 1 and not (tmp_path / "g.yaml").exists()
