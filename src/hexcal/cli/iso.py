@@ -7,18 +7,19 @@ With either option the printed report adds the ISO figures, ``--json`` adds them
 the inputs) instead of the validation page. The library does the work, refuses options that
 cannot act together and decides how each column takes the setup (:func:`hexcal.validate`,
 :func:`hexcal.workflow.validation.check_options`); definitions in docs/iso-tests.md. Imports
-only the standard library at its top (the defaults from :mod:`hexcal.calibration.limits`).
+only the standard library at its top (the defaults, when the parser is built, from
+:mod:`hexcal.calibration.limits`).
 """
 
 from __future__ import annotations
 
 import argparse
 
-from hexcal.calibration.limits import VISIT_TOLERANCE, VISIT_TOLERANCE_LIMIT
-
 
 def iso_options(p: argparse.ArgumentParser) -> None:
     """Add ``--iso230-4``, ``--iso9283``, ``--visit-tolerance`` and ``--polar`` to ``validate``."""
+    from hexcal.calibration.limits import VISIT_TOLERANCE, VISIT_TOLERANCE_LIMIT  # constants only: no numpy
+
     p.add_argument(
         "--iso230-4",
         dest="iso230_4",
