@@ -163,12 +163,9 @@ class Validation:
     def html(self) -> str:
         """The self-contained HTML page of ``hexcal validate --html`` (the ISO page with an ISO
         test)."""
-        from hexcal.report import iso_report, render_html, validation_report
+        from hexcal.report import render_html, validation_report
 
-        data = self.to_dict()
-        if data["iso"] is not None:
-            return render_html(iso_report(data["iso"], inputs=data["inputs"], record=data))
-        return render_html(validation_report(data))
+        return render_html(validation_report(self.to_dict()))
 
     def table(self) -> tuple[list[str], Any, list[str], str]:
         """The per-pose table of ``hexcal validate --out``: ``(columns, rows, ids, comment)``."""
