@@ -368,7 +368,8 @@ def test_the_calibration_page_shows_the_leg_model_choice_the_text_prints() -> No
         line = next(ln for ln in text.splitlines() if ln.strip().startswith(f"{name} "))
         assert f"held-out leg RMS {score['leg_rms_mm']:.4g} mm" in line
         assert line.endswith("<- chosen") == (name == choice["choice"])
-    assert f"{calibration.leg_model}, chosen by cross-validation" in text and calibration.leg_model in page
+    chosen = f"leg model chosen by cross-validation ({choice['scheme']}): {calibration.leg_model}"
+    assert chosen in text and calibration.leg_model in page
 
 
 # -- refusals, in one line, from Python and the command line alike --------------------------------
