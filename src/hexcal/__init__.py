@@ -28,7 +28,7 @@ same few names do the whole calibration: ``setup = hexcal.load_setup("tracker.ya
 ``result = hexcal.estimate(geometry, sessions, noise="auto")`` (one machine, each session
 its own instrument frame, the noise learned from the data as ``hexcal identify`` does;
 ``result.verdict.status`` is pass, warn or fail), then
-``hexcal.validate(result.geometry, held_out_session)``.
+``hexcal.validate(result.geometry, held_out_session)`` (what ``hexcal validate`` does).
 
 Public names
 ------------
@@ -50,7 +50,9 @@ Public names
   verdict, splits, predicted accuracy) and its result, reports and file.
 - ``estimate``, ``ESTIMATORS``, ``IdentificationResult``, ``Problem``, ``identify_robust``,
   ``Verdict``: identification from one or several sessions, with its verdict.
-- ``validate``, ``ValidationResult``: prediction errors on held-out data.
+- ``validate``, ``Validation``, ``ValidationResult``: the validation workflow on held-out data
+  (the re-registration, what the calibration expected, the nominal machine beside, the ISO
+  tests) and its result, reports and files; one geometry's prediction errors.
 - ``compensate``: leg commands that bring the calibrated machine to targets.
 - ``candidate_poses``, ``check_feasibility``, ``analyse_poses``, ``plan_selection``,
   ``select_poses``: planning (candidate poses, observability, optimal selection).
@@ -134,7 +136,8 @@ _PUBLIC = {
     "calibrate": "workflow",
     "Calibration": "workflow",
     "estimate": "calibration",
-    "validate": "calibration",
+    "validate": "workflow",
+    "Validation": "workflow",
     "ValidationResult": "calibration",
     "Verdict": "calibration",
     "analyse_poses": "design",

@@ -33,13 +33,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hexcal.calibration.limits import VISIT_TOLERANCE_LIMIT
 from hexcal.errors import InputError
-
-#: Largest tolerance (mm) on the leg readings of visits of one commanded pose. Visits of one
-#: pose read the same leg commands, to the file's rounding or a servo's error (micrometres);
-#: legs a tenth of a millimetre apart command another pose, and grouping them would report the
-#: distance between poses as repeatability (--visit-tolerance 1e9 made 20 poses one, RP 368 mm).
-VISIT_TOLERANCE_LIMIT = 0.1
 
 
 def check_visit_tolerance(tolerance: float) -> None:

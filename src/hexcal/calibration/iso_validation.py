@@ -57,14 +57,12 @@ import numpy as np
 from hexcal.calibration.iso_poses import PoseStatistics, check_visits, pose_statistics
 from hexcal.calibration.iso_poses import repeated_visits as visits_of
 from hexcal.calibration.iso_tests import CircularTest, circular_test
+from hexcal.calibration.limits import VISIT_TOLERANCE
 from hexcal.calibration.validation import DEFAULT_FOLDS, ValidationResult, validate
 from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.errors import UsageError
 from hexcal.instruments.base import MeasurementModel, Session
-
-#: Default tolerance (mm) on every leg reading for two observations to be visits of one pose.
-VISIT_TOLERANCE = 0.01
 
 #: The ISO tests, by the name of their option.
 ISO_TESTS = ("iso230-4", "iso9283")

@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 
 from hexcal.calibration.accuracy import expected_validation, machine_mask
 from hexcal.calibration.identify import register_sessions
+from hexcal.calibration.limits import VALIDATION_FOLDS
 from hexcal.calibration.reregistration import quantity_mask, reregister, undetermined_quantities
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, pose_errors
@@ -50,7 +51,7 @@ from hexcal.instruments.base import MeasurementModel, Session
 _POSE_ITERATIONS = 30
 
 #: Folds of the cross-validated re-registration (module docstring).
-DEFAULT_FOLDS = 5
+DEFAULT_FOLDS = VALIDATION_FOLDS
 
 #: Poses a fold's registration must keep per free quantity of the instrument, at least.
 _POSES_PER_QUANTITY = 1.0

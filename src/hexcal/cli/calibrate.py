@@ -2,9 +2,9 @@
 
 Every instrument takes the same path: a data file is read with its setup (``--setup``; none
 for the full pose in the base frame) into a session, and the library does the rest
-(:func:`hexcal.calibration.estimate`, :func:`hexcal.calibration.validate`,
-:func:`hexcal.simulation.simulate_session`). ``--data`` and ``--setup`` may be repeated: pairs in
-order, one setup for every data file, or none.
+(:func:`hexcal.calibrate`, :func:`hexcal.validate`, :func:`hexcal.simulation.simulate_session`).
+``--data`` and ``--setup`` may be repeated: pairs in order, one setup for every data file, or
+none.
 
 Imports only the standard library and :mod:`hexcal.cli.common` at its top; each command
 imports the library parts it needs when it runs, calls the library and renders the result
@@ -195,67 +195,48 @@ def _split_option(values: list[str] | None) -> Any:
 
 def cmd_validate(args: argparse.Namespace) -> None:
     """Prediction errors of a calibration (and optionally the nominal geometry) on held-out data;
-    warns of readings beyond a stroke model's calibrated stroke."""
-    from hexcal.calibration import validate
-    from hexcal.calibration.validation import check_folds
-    from hexcal.core import stroke_excess
-    from hexcal.io import write_table
-    from hexcal.report import render, validation_dict, validation_json, validation_table
+    the library's warnings (legs beyond a stroke model's calibrated stroke) printed."""
+    from hexcal.io import atomic_write
+    from hexcal.workflow import validate
+    from hexcal.workflow.validation import check_options
 
     check_outputs(args.out, args.html, args.json, args.polar)
-    if args.folds is not None and args.folds < 2:
-        raise CommandError(f"--folds must be at least 2, got {args.folds}")
+    options = {"iso230_4": args.iso230_4, "iso9283": args.iso9283, "visit_tolerance": args.visit_tolerance}
+    check_options(**options, folds=args.folds, polar=bool(args.polar))
     geometry = load_geometry(args.geometry, args.euler)
     sessions = read_sessions(args, geometry)
-    if len(sessions) != 1:
-        raise CommandError("validate: give one --data file (validate each session on its own)")
-    session = sessions[0]
-    from hexcal.cli.iso import check_iso, iso_page, iso_results, iso_validations
-
-    check_iso(args, session)
-    check_folds(session, folds=args.folds)  # the library says when the folds cannot act
-    options = {"seed": args.seed} if args.folds is None else {"folds": args.folds, "seed": args.seed}
-    nominal_geometry = load_geometry(args.nominal, geometry.euler) if args.nominal else None
-    checked = iso_validations(args, geometry, session, nominal_geometry)
-    if checked is not None:
-        calibrated, nominal = checked.after_result, checked.results.get("nominal")
-    else:
-        from hexcal.calibration.iso_validation import check_nominal_setup
-
-        calibrated, nominal = validate(geometry, session, **options), None
-        if nominal_geometry is not None:
-            check_nominal_setup(session.instrument, calibrated)
-            nominal = validate(nominal_geometry, session, **options)
-    print(render("validation", validation_dict(calibrated, nominal)))
-    beyond = stroke_excess(geometry, session.instrument.readings(session.data), ids=calibrated.ids)
-    if beyond is not None and (line := beyond.warning("pose(s) of the session")):
+    nominal = load_geometry(args.nominal, geometry.euler) if args.nominal else None
+    files = {"geometry": args.geometry, "nominal": args.nominal}
+    files |= _numbered("data", args.data) | _numbered("setup", args.setup)
+    validation = validate(
+        geometry, sessions, nominal=nominal, folds=args.folds, seed=args.seed,
+        inputs=inputs_record(files, args), **options,
+    )  # fmt: skip
+    print(validation.report())
+    for line in validation.warnings:
         warn(f"hexcal: warning: {line}")
-    iso = iso_results(args, session, checked)
+    if args.polar:
+        validation.save_polar(args.polar)
+        print(f"wrote the polar plot to {args.polar}")
     if args.out:
-        columns, rows, ids, comment = validation_table(calibrated, nominal, calibrated.ids)
-        write_table(args.out, columns, rows, ids, comment=comment, missing=True)
+        validation.save_table(args.out)
         print(f"wrote the per-pose table to {args.out}")
     if args.json:
-        from hexcal.io import atomic_write
-
         with atomic_write(args.json) as fh:
-            record = validation_json(calibrated, nominal) | ({"iso": iso} if iso else {})
-            if beyond is not None:
-                record["beyond_stroke"] = beyond.to_dict()
-            fh.write(render("validation", record, "json"))
+            fh.write(validation.report("json"))
         print(f"wrote the JSON summary to {args.json}")
     if args.html:
-        from hexcal.io import atomic_write
-        from hexcal.report import render_html, validation_report
-
-        results = {"calibrated": calibrated} | ({"nominal": nominal} if nominal else {})
-        files = _given(geometry=args.geometry, data=args.data, nominal=args.nominal, setup=args.setup)
         with atomic_write(args.html) as fh:
-            if iso:
-                fh.write(iso_page(args, iso, files, calibrated, nominal))
-            else:
-                fh.write(render_html(validation_report(results, inputs_record(files, args))))
+            fh.write(validation.html())
         print(f"wrote the HTML report to {args.html}")
+
+
+def _numbered(label: str, paths: list[str] | None) -> dict[str, str]:
+    """Input files by role: ``data`` for one file, ``data 1``, ``data 2``, ... for several."""
+    paths = paths or []
+    if len(paths) == 1:
+        return {label: paths[0]}
+    return {f"{label} {k + 1}": path for k, path in enumerate(paths)}
 
 
 def cmd_synthesize(args: argparse.Namespace) -> None:
@@ -402,12 +383,14 @@ def register(sub: Any) -> None:
         help="save the summary as JSON (position_rms_mm, orientation_rms_rad, leg_rms_mm, maxima, the "
         "registration, what the calibration expected)",
     )
+    from hexcal.calibration.limits import VALIDATION_FOLDS  # constants only: no numpy
+
     p.add_argument(
         "--folds",
         type=int,
         default=None,
-        help="folds of the cross-validated re-registration of a free frame or tool (default 5; refused "
-        "when nothing is re-registered)",
+        help=f"folds of the cross-validated re-registration of a free frame or tool (default "
+        f"{VALIDATION_FOLDS}; refused when nothing is re-registered)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the poses' folds (default 0)")
     p.add_argument("--html", metavar="FILE", help="save a self-contained HTML report with figures")

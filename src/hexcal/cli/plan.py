@@ -287,7 +287,9 @@ def cmd_select(args: argparse.Namespace) -> None:
         from hexcal.cli.common import inputs_record
         from hexcal.report import render_html, selection_report
 
-        page = selection_report(data, selection.poses, geometry.workspace, inputs_record({}, args))
+        files = {"geometry": args.geometry, "setup": args.setup}
+        files |= {f"candidates {k + 1}": f for k, f in enumerate(candidate_files(args.candidates))}
+        page = selection_report(data, selection.poses, geometry.workspace, inputs_record(files, args))
         with atomic_write(args.html) as fh:
             fh.write(render_html(page))
         print(f"wrote the HTML report to {args.html}")

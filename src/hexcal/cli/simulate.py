@@ -153,7 +153,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     }
     study["true_machine"] = true.name if true else "random"
     if args.html:
-        _write_html(args, "study_report", study, {"geometry": args.geometry, "true": args.true})
+        files = {"geometry": args.geometry, "true": args.true, "setup": args.setup}
+        _write_html(args, "study_report", study, files)
     if out is not None:
         from hexcal.io import atomic_write, write_table
         from hexcal.report import plot_study, study_table
