@@ -4,8 +4,9 @@ Layers, lowest first: ``errors`` and ``_lazy`` (anyone may import them), ``core`
 ``instruments``, ``estimation``, ``calibration``, ``design``, ``simulation``, ``report``,
 then ``io`` and ``cli`` (the edges). A module may import its own layer and lower ones, never
 a higher one; no module imports a private (underscore) name of another module; there is no
-import cycle between modules; modules stay small; only the figure module imports
-matplotlib; numpy and scipy stay out of the command line's start-up.
+import cycle between modules; only the figure module imports matplotlib; numpy and scipy stay
+out of the command line's start-up. Modules are split by concept, not by length (issue 29: a
+line cap split one concept into thirds), so no test counts their lines.
 
 Every import counts, wherever it is: at module level (also under ``if`` or ``try``) and
 inside functions, where deferred imports keep start-up light (issue 18: a layer's deferred
@@ -46,10 +47,6 @@ LAYERS = {
     "__init__": 10,
     "__main__": 10,
 }
-
-#: "No module over about 400 lines" (issue 8); a margin for docstrings.
-MAX_LINES = 450
-
 
 def _modules() -> list[Path]:
     return sorted(SRC.rglob("*.py"))
@@ -181,12 +178,6 @@ def test_no_private_name_is_imported_across_modules(path: Path) -> None:
             assert not private, (
                 f"{path.relative_to(SRC)} imports private {private} from {imp.module} at {imp.where()}"
             )
-
-
-@pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(SRC)))
-def test_modules_stay_small(path: Path) -> None:
-    lines = len(path.read_text(encoding="utf-8").splitlines())
-    assert lines <= MAX_LINES, f"{path.relative_to(SRC)} has {lines} lines"
 
 
 def test_only_the_figure_modules_import_matplotlib() -> None:
