@@ -48,6 +48,7 @@ LAYERS = {
     "__main__": 10,
 }
 
+
 def _modules() -> list[Path]:
     return sorted(SRC.rglob("*.py"))
 

@@ -229,14 +229,14 @@ class MeasurementModel(ABC):
         its quantities known (the least-squares pose of each observation, as validation finds
         it): the noise through the pseudo-inverse of the pose Jacobian, ``H⁺ Σ H⁺ᵀ`` (``H⁻¹ Σ
         H⁻ᵀ`` for six values); NaN where the values cannot give the pose (rank below 6)."""
-        jac = self.pose_jacobian(setup, poses, euler)
-        if jac.shape[1] == 6:
+        jac = self.pose_jacobian(setup, poses, euler)  # batch-first: (..., m, size, 6)
+        if jac.shape[-2] == 6:
             inv = np.linalg.inv(jac)
         else:
             inv = np.linalg.pinv(jac)
             sv = np.linalg.svd(jac, compute_uv=False)
-            inv[~(sv[:, -1] > 1e-9 * sv[:, 0]) if sv.shape[1] == 6 else slice(None)] = np.nan
-        return inv @ self.covariance(noise) @ inv.transpose(0, 2, 1)
+            inv[~(sv[..., -1] > 1e-9 * sv[..., 0]) if sv.shape[-1] == 6 else ...] = np.nan
+        return inv @ self.covariance(noise) @ np.swapaxes(inv, -1, -2)
 
     # -- simulation and diagnoses ---------------------------------------------------------
     def simulate(

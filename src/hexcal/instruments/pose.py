@@ -256,7 +256,7 @@ class ToolModel(FramedModel):
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], noise: NoiseModel, euler: str
     ) -> NDArray[np.float64]:
         if self.identity:
-            return np.broadcast_to(noise.pose_cov(), (len(poses), 6, 6))
+            return np.broadcast_to(noise.pose_cov(), (*np.shape(poses)[:-1], 6, 6))
         return super().platform_covariance(setup, poses, noise, euler)
 
     # -- simulation and diagnoses -------------------------------------------------------
