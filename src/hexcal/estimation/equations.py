@@ -168,28 +168,36 @@ class Equations:
             self.b_inst[idx] = other.b_inst
 
 
+def model_lengths(session: Observations, legs: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The lengths ``(..., m, 6)`` the leg model gives the session's readings for leg blocks
+    ``legs`` ``(..., p)``."""
+    return session.model.lengths(legs[..., None, :], session.readings)
+
+
 def observation_equations(
     session: Observations,
     joints: NDArray[np.float64],
     legs: NDArray[np.float64],
     setup: NDArray[np.float64],
     poses: NDArray[np.float64],
+    lengths_of_readings: NDArray[np.float64] | None = None,
 ) -> Equations:
     """The whitened equations of a session's observations at true ``poses`` ``(..., m, 6)``
     for the machine's ``joints`` ``(..., 36)`` and leg block ``legs`` ``(..., p)`` and the
-    instrument's parameters ``setup`` ``(..., q)`` (see the module)."""
+    instrument's parameters ``setup`` ``(..., q)`` (see the module); ``lengths_of_readings``
+    are :func:`model_lengths` when known (they do not depend on the poses)."""
     lead = joints.shape[:-1]
     u = joints[..., :18].reshape(*lead, 1, 6, 3)
     s = joints[..., 18:36].reshape(*lead, 1, 6, 3)
     lengths, jp = pose_jacobian_from_arrays(u, s, poses, session.euler)
-    model = session.model.lengths(legs[..., None, :], session.readings)
+    model = model_lengths(session, legs) if lengths_of_readings is None else lengths_of_readings
     e_leg = (lengths - model) / session.sigma
     b_leg = jp / session.sigma
     w, inst = session.whitener, session.instrument
-    delta = inst.residual(setup, poses, session.euler, session.observed)
     if session.constant:
+        delta = inst.residual(setup, poses, session.euler, session.observed)
         return Equations(e_leg, delta @ w.T, b_leg, None, lengths)
-    dh = inst.whitened_pose_jacobian(setup, poses, session.euler, w)
+    delta, dh = inst.residual_and_pose_jacobian(setup, poses, session.euler, session.observed, w)
     if session.complete:
         return Equations(e_leg, delta @ w.T, b_leg, dh, lengths)
     present = session.present

@@ -124,6 +124,23 @@ def cholesky_solve(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np
     return np.moveaxis(y, 0, -1)
 
 
+#: Systems below which LAPACK's stacked solve is faster than :func:`cholesky_solve` (its
+#: per-system cost is lower; the vectorised Cholesky's per-call cost is lower).
+SMALL_STACK = 2048
+
+
+def solve_small(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``a⁻¹ b`` for stacks ``(..., n, n)`` of symmetric positive definite systems and ``b``
+    ``(..., n)``: LAPACK for a few systems, :func:`cholesky_solve` for many, or where one of a
+    few is singular (NaN for it, the others solved)."""
+    if int(np.prod(a.shape[:-2])) < SMALL_STACK:
+        try:
+            return np.linalg.solve(a, b[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            pass
+    return cholesky_solve(a, b)
+
+
 # -- the damping and the acceptance of a step ------------------------------------------------
 def damped(h: NDArray[np.float64], lam: NDArray[np.float64]) -> NDArray[np.float64]:
     """``H + λ diag(H)`` (Marquardt's scaling; the diagonal floored to stay positive)."""

@@ -46,6 +46,7 @@ from hexcal.estimation.covariance import finish_result
 from hexcal.estimation.equations import (
     Equations,
     Observations,
+    model_lengths,
     observation_equations,
     parameter_rows,
     session_weights,
@@ -62,6 +63,7 @@ from hexcal.estimation.levenberg import (
     forward_substitute,
     minimise,
     rounding_floor,
+    solve_small,
 )
 from hexcal.estimation.problem import Part, Problem, session_noises
 from hexcal.estimation.result import IdentificationResult, rms
@@ -98,12 +100,14 @@ class PoseSolver:
             return self.obs
         return self.obs.take(idx)
 
-    def equations(self, full: NDArray, poses: NDArray, idx: NDArray[np.intp]) -> Equations:
-        """The equations of trials ``idx`` at ``poses`` ``(k, m, 6)`` for ``full`` ``(k, N)``."""
+    def equations(
+        self, full: NDArray, poses: NDArray, idx: NDArray[np.intp], lengths: NDArray | None = None
+    ) -> Equations:
+        """The equations of trials ``idx`` at ``poses`` ``(k, m, 6)`` for ``full`` ``(k, N)``
+        (``lengths``: the leg model's lengths of the readings, when known)."""
         obs = self.observations(idx)
-        return observation_equations(
-            obs, full[:, self.joints], full[:, self.legs], full[:, self.block], poses
-        )
+        joints, legs, setup = full[:, self.joints], full[:, self.legs], full[:, self.block]
+        return observation_equations(obs, joints, legs, setup, poses, lengths)
 
     def solve(
         self, full: NDArray, poses: NDArray, idx: NDArray[np.intp]
@@ -115,16 +119,18 @@ class PoseSolver:
         out: Equations | None = None
         gram = np.empty(0)
         todo = np.arange(len(idx))
+        everyone = True  # every trial still moves: the last equations are the whole result
+        lengths = model_lengths(self.observations(idx), full[:, self.legs])  # constant over the solve
         last = np.zeros(len(idx), dtype=bool)  # converged: only the equations at the last step are due
         for _ in range(_INNER_MAX_ITER + 1):
-            eqs = self.equations(full[todo], poses[todo], idx[todo])
+            eqs = self.equations(full[todo], poses[todo], idx[todo], lengths[todo])
             hess = eqs.gram(self.whitener)
-            if out is None:
+            if everyone:
                 out, gram = eqs, hess
             else:
                 out.put(todo, eqs)
                 gram[todo] = hess
-            step = cholesky_solve(hess, eqs.rhs(self.whitener))
+            step = solve_small(hess, eqs.rhs(self.whitener))
             size = np.max(np.abs(step), axis=(1, 2))
             scale = 1.0 + np.max(np.abs(poses[todo]), axis=(1, 2))
             # a trial moves on unless its step is below rounding (the equations here are final),
@@ -132,6 +138,7 @@ class PoseSolver:
             moving = np.isfinite(size) & (size >= _SETTLED * scale) & ~last[todo]
             poses[todo[moving]] -= step[moving]
             last[todo[moving]] = size[moving] < _INNER_TOL * scale[moving]
+            everyone &= bool(moving.all())
             todo = todo[moving]
             if todo.size == 0:
                 break
@@ -519,11 +526,17 @@ class Projection:
 
 
 def _solve_one(
-    problem: Problem, noises: Sequence[NoiseModel], xtol: float, max_iter: int, start: NDArray | None = None
+    problem: Problem,
+    noises: Sequence[NoiseModel],
+    xtol: float,
+    max_iter: int,
+    start: NDArray | None = None,
+    poses: Sequence[NDArray[np.float64]] | None = None,
 ) -> Solution:
-    """:func:`solve_ml` of one problem (a stack of one), from solver variables ``start``."""
+    """:func:`solve_ml` of one problem (a stack of one), from solver variables ``start`` and the
+    true poses ``poses`` of each session (default the instruments' start poses)."""
     full = None if start is None else problem.unpack(np.asarray(start, dtype=float))[None]
-    return solve_ml(Stack.of_problem(problem), noises, xtol=xtol, max_iter=max_iter, start=full)
+    return solve_ml(Stack.of_problem(problem, poses), noises, xtol=xtol, max_iter=max_iter, start=full)
 
 
 def fit_ml(
@@ -590,7 +603,9 @@ def fit_ml(
             )
     rms_before = rms(inner.residuals(x0))
     legs_before = None if problem.determines_pose else inner.leg_residuals(x0)
-    solution = _solve_one(problem, noises, xtol, 500 if max_nfev is None else max_nfev, start)
+    # a solve from the start values begins at the poses just found there
+    poses = None if start is not None or problem.determines_pose else [p.poses for p in inner.parts]
+    solution = _solve_one(problem, noises, xtol, 500 if max_nfev is None else max_nfev, start, poses)
     converged_or_raise(int(solution.status[0]), truncate)
     full = solution.full[0]
     x = (full[problem.mask] - problem.full0[problem.mask]) / problem.scale

@@ -182,18 +182,13 @@ class Stack:
 
     # -- construction ---------------------------------------------------------------------
     @classmethod
-    def of_problem(cls, problem: Problem) -> Stack:
-        """One identification as a stack of one: every session a part."""
+    def of_problem(cls, problem: Problem, poses: Sequence[NDArray[np.float64]] | None = None) -> Stack:
+        """One identification as a stack of one: every session a part, its start poses
+        ``poses`` (one array per session) or the instrument's."""
+        poses = [problem.start_poses(p) for p in problem.parts] if poses is None else poses
         parts = tuple(
-            StackPart(
-                p.instrument,
-                p.block,
-                p.readings[None],
-                p.observed[None],
-                p.present[None],
-                problem.start_poses(p)[None],
-            )
-            for p in problem.parts
+            StackPart(p.instrument, p.block, p.readings[None], p.observed[None], p.present[None], own[None])
+            for p, own in zip(problem.parts, poses, strict=True)
         )
         return cls(problem.start, problem.parameters, problem.full0[None], parts, None, problem)
 

@@ -130,6 +130,20 @@ class MeasurementModel(ABC):
         """``W d residual / d pose`` for a whitening matrix ``W`` (size, size): ``(m, size, 6)``."""
         return np.matmul(whitener, self.pose_jacobian(setup, poses, euler))
 
+    def residual_and_pose_jacobian(
+        self,
+        setup: NDArray[np.float64],
+        poses: NDArray[np.float64],
+        euler: str,
+        observed: NDArray[np.float64],
+        whitener: NDArray[np.float64],
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """:meth:`residual` and :meth:`whitened_pose_jacobian` at once (what the pose solve of the
+        likelihood asks at every step); a model overrides it to share the work of the two."""
+        return self.residual(setup, poses, euler, observed), self.whitened_pose_jacobian(
+            setup, poses, euler, whitener
+        )
+
     def setup_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:

@@ -107,7 +107,7 @@ class ToolModel(FramedModel):
         rot_p, pos = pose_frames(poses, euler)
         rt = np.einsum("...mjk,...k->...mj", rot_p, t_t)
         point = pos + rt  # tool origin, base frame
-        rot = np.einsum("...ab,...mbc,...cd->...mad", rot_f, rot_p, rot_t)
+        rot = rot_f[..., None, :, :] @ rot_p @ rot_t[..., None, :, :]
         return rot_f, t_f, rot_t, t_t, rot_p, rt, point, rot
 
     @staticmethod
@@ -136,7 +136,26 @@ class ToolModel(FramedModel):
             if self.orientation == "euler":
                 diff[..., 3:] = _wrap(diff[..., 3:])
                 return diff
-        rot_f, t_f, *_, point, rot = self._frames(setup, poses, euler)
+        return self._residual(self._frames(setup, poses, euler), euler, observed)
+
+    def residual_and_pose_jacobian(
+        self,
+        setup: NDArray[np.float64],
+        poses: NDArray[np.float64],
+        euler: str,
+        observed: NDArray[np.float64],
+        whitener: NDArray[np.float64],
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        if self.identity:
+            return self.residual(setup, poses, euler, observed), self.whitened_pose_jacobian(
+                setup, poses, euler, whitener
+            )
+        frames = self._frames(setup, poses, euler)  # once for both
+        jac = np.matmul(whitener, self._pose_jacobian(frames, poses, euler))
+        return self._residual(frames, euler, observed), jac
+
+    def _residual(self, frames: tuple, euler: str, observed: NDArray[np.float64]) -> NDArray[np.float64]:
+        rot_f, t_f, *_, point, rot = frames
         position = self._to_instrument(rot_f, t_f, point) - observed[..., :3]
         if self.orientation == "euler":
             return np.concatenate([position, _wrap(matrix_to_euler(rot, euler) - observed[..., 3:])], axis=-1)
@@ -157,7 +176,10 @@ class ToolModel(FramedModel):
     ) -> NDArray[np.float64]:
         if self.identity:
             return np.broadcast_to(np.eye(6), (*np.shape(poses)[:-1], 6, 6))
-        rot_f, _, _, _, _, rt, _, rot = self._frames(setup, poses, euler)
+        return self._pose_jacobian(self._frames(setup, poses, euler), poses, euler)
+
+    def _pose_jacobian(self, frames: tuple, poses: NDArray[np.float64], euler: str) -> NDArray[np.float64]:
+        rot_f, _, _, _, _, rt, _, rot = frames
         axes = euler_axes(poses[..., 3:], euler)
         rf = rot_f[..., None, :, :]
         jac = np.zeros((*rot.shape[:-2], 6, 6))
