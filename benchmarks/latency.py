@@ -7,9 +7,8 @@ Run ``python benchmarks/latency.py`` (``--quick`` for one repeat, ``--only real|
   numpy and scipy alone (trust-region reflective, finite-difference Jacobian, the leg length
   residual of every pose): the two real sessions' leg lengths at the measured poses with the
   machine, each session's motion-capture frame and tool free (the independent fit of
-  ``tests/test_real_sessions.py``); for the ballbar, the bar and leg equations of every pose
-  with the machine, the bars and every pose free (weighted by the noise, the Jacobian's
-  sparsity given), since a bar gives no pose;
+  ``tests/test_real_sessions.py``); for the ballbar, which gives no pose, the bar's readings
+  with the machine and the bars free and each pose from its legs (Newton's method);
 - **library**: the library call in this process (``hexcal.calibrate`` where it exists, else
   what ``hexcal identify`` calls: the leg model's choice for ``auto``, then
   :func:`hexcal.calibration.estimate` with the command's defaults), the inputs already read;
@@ -176,55 +175,56 @@ def real_baseline(sessions: list[Any], nominal: Any) -> Callable[[], float]:
 
 
 def ballbar_baseline(sessions: list[Any], nominal: Any) -> Callable[[], float]:
-    """The plain fit of the ballbar sessions: machine (joints, l0), each bar (pivot, ball,
-    length) and every pose, the leg and bar equations weighted by the walkthrough's noise
-    (leg 0.002 mm, bar 0.001 mm), from the nominal machine, the setups and the forward kinematics
-    of the readings (computed before, not timed); returns a function that fits and gives the leg
-    RMS (mm)."""
+    """The plain fit of the ballbar sessions: machine (joints, l0) and each bar (pivot, ball,
+    length) from the nominal machine and the setups as given; each pose from its leg readings by
+    Newton's method (a finite-difference Jacobian, warm-started at the last poses), the bar
+    residual ``|o + R b - c| - length - d``; returns a function that fits and gives the bar RMS
+    (mm)."""
     from scipy.optimize import least_squares
-    from scipy.sparse import lil_matrix
 
     from hexcal.instruments.framed import fk_start_poses
 
-    readings = [s.data.readings for s in sessions]
-    bars = [s.data.d for s in sessions]
-    m = [len(r) for r in readings]
-    poses0 = np.concatenate([fk_start_poses(nominal, r) for r in readings])
+    readings = np.concatenate([s.data.readings for s in sessions])
+    d = np.concatenate([s.data.d for s in sessions])
+    session = np.repeat(np.arange(len(sessions)), [len(s.data.d) for s in sessions])
+    poses0 = fk_start_poses(nominal, readings)  # a start for Newton's method (not timed)
     machine0 = np.concatenate([nominal.base_joints.ravel(), nominal.platform_joints.ravel()])
-    gains = nominal.leg_gains
     setups0 = [s.instrument.parameters().values for s in sessions]  # pivot, ball, length
-    x0 = np.concatenate([machine0, nominal.initial_leg_lengths, *setups0, poses0.ravel()])
-    n_fixed, total = 42 + 7 * len(sessions), sum(m)
-    sigma_leg, sigma_bar = 0.002, 0.001
-    dl = np.concatenate(readings)
-    d = np.concatenate(bars)
-    session = np.repeat(np.arange(len(sessions)), m)
+    x0 = np.concatenate([machine0, nominal.initial_leg_lengths, *setups0])
+    gains = nominal.leg_gains
+    last = [poses0]
+
+    def legs(poses: np.ndarray, u: np.ndarray, s: np.ndarray) -> np.ndarray:
+        v = poses[:, None, :3] + np.einsum("mij,kj->mki", _rotations(poses[:, 3:]), s) - u
+        return np.linalg.norm(v, axis=2)
 
     def residuals(x: np.ndarray) -> np.ndarray:
         u, s, l0 = x[:18].reshape(6, 3), x[18:36].reshape(6, 3), x[36:42]
-        setups = x[42:n_fixed].reshape(len(sessions), 7)[session]
-        poses = x[n_fixed:].reshape(total, 6)
-        rot = _rotations(poses[:, 3:])
-        v = poses[:, None, :3] + np.einsum("mij,kj->mki", rot, s) - u
-        legs = (np.linalg.norm(v, axis=2) - (l0 + gains * dl)) / sigma_leg
-        bar = np.linalg.norm(
-            poses[:, :3] + np.einsum("mij,mj->mi", rot, setups[:, 3:6]) - setups[:, :3], axis=1
-        )
-        return np.concatenate([legs.ravel(), (bar - setups[:, 6] - d) / sigma_bar])
-
-    sparsity = lil_matrix((7 * total, x0.size), dtype=int)
-    for j in range(total):
-        rows = list(range(6 * j, 6 * j + 6)) + [6 * total + j]
-        sparsity[rows, n_fixed + 6 * j : n_fixed + 6 * j + 6] = 1
-        sparsity[6 * total + j, 42 + 7 * session[j] : 49 + 7 * session[j]] = 1
-    for i in range(6):
-        cols = [3 * i, 3 * i + 1, 3 * i + 2, 18 + 3 * i, 19 + 3 * i, 20 + 3 * i, 36 + i]
-        for c in cols:
-            sparsity[np.arange(total) * 6 + i, c] = 1
+        target = l0 + gains * readings
+        poses = last[0].copy()
+        for _ in range(20):  # Newton's method on the six leg lengths of every pose
+            error = legs(poses, u, s) - target
+            jac = np.stack(
+                [(legs(poses + h, u, s) - legs(poses - h, u, s)) / 2e-6 for h in 1e-6 * np.eye(6)], -1
+            )
+            try:
+                step = np.linalg.solve(jac, error[..., None])[..., 0]
+            except np.linalg.LinAlgError:  # a wild trial step: no pose (the solver steps back)
+                return np.full(len(d), np.nan)
+            poses -= step
+            if np.max(np.abs(step)) < 1e-10:
+                break
+        if not np.all(np.isfinite(poses)):
+            return np.full(len(d), np.nan)
+        last[0] = poses
+        bar = x[42:].reshape(len(sessions), 7)[session]
+        ball = np.einsum("mij,mj->mi", _rotations(poses[:, 3:]), bar[:, 3:6])
+        return np.linalg.norm(poses[:, :3] + ball - bar[:, :3], axis=1) - bar[:, 6] - d
 
     def fit() -> float:
-        sol = least_squares(residuals, x0, jac_sparsity=sparsity, x_scale="jac")
-        return float(np.sqrt(np.mean((sol.fun[: 6 * total] * sigma_leg) ** 2)))
+        last[0] = poses0
+        sol = least_squares(residuals, x0)
+        return float(np.sqrt(np.mean(sol.fun**2)))
 
     return fit
 
@@ -426,7 +426,7 @@ def main() -> None:
             target = TARGETS[case["name"]]
             leg = getattr(result, "leg_rms_after", float("nan"))
             print(
-                f"latency.{case['name']}: baseline {base:.3f} s (plain scipy fit, leg RMS {rms:.3f} mm) | "
+                f"latency.{case['name']}: baseline {base:.3f} s (plain scipy fit, RMS {rms:.3f} mm) | "
                 f"library {library:.3f} s = {library / base:.1f}x (leg RMS {leg:.3f} mm) | "
                 f"command {command:.3f} s cpu ({wall:.3f} s wall) = {command / base:.1f}x | "
                 f"target <= {target:g}x: library {'PASS' if library / base <= target else 'MISS'}, "
