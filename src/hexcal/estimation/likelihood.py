@@ -459,6 +459,7 @@ class PoseProjection:
         self.poses = self.start.copy()
         self.x: NDArray[np.float64] | None = None
         self.e = self.b = np.empty(0)
+        self._basis: tuple[NDArray, NDArray] | None = None
 
     def reset(self) -> None:
         """Start the next pose solve from the initial poses again."""
@@ -474,12 +475,19 @@ class PoseProjection:
         self.x, self.poses, self.e, self.b = x.copy(), poses[0], e, b
         return self.poses, e, b
 
+    def basis(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """An orthonormal basis ``Q`` ``(m, 6 + k, 6)`` of each pose Jacobian at ``x`` (cached)."""
+        _, _, b = self.evaluate(x)
+        if self._basis is None or self._basis[0] is not b:
+            self._basis = (b, np.linalg.qr(b)[0])
+        return self._basis[1]
+
     def jacobian(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """The projected Jacobian ``(I - Q Qᵀ) ∂e/∂θ`` of this session, ``(m (6 + k), n_free)``."""
-        poses, _, b = self.evaluate(x)
+        poses = self.evaluate(x)[0]
         full = self.problem.unpack(x)
         a = self.problem.eiv_parameter_jacobian(self.part, full, poses, self.sigma, self.whitener)
-        q, _ = np.linalg.qr(b)
+        q = self.basis(x)
         proj = a - np.matmul(q, np.matmul(q.transpose(0, 2, 1), a))
         return proj.reshape(-1, a.shape[-1])
 

@@ -152,9 +152,9 @@ def _statistics(
     counts, hsum = np.zeros(ng), np.zeros(ng)
     mixed = False
     row = 0
-    for k, (part, (_, e, b), pp) in enumerate(zip(problem.parts, evaluated, inner.parts, strict=True)):
+    for k, (part, (_, e, _), pp) in enumerate(zip(problem.parts, evaluated, inner.parts, strict=True)):
         m, r = e.shape
-        q, _ = np.linalg.qr(b)
+        q = pp.basis(x)  # the projected Jacobian's (no second factorisation)
         ub = u[row : row + m * r].reshape(m, r, rank)
         row += m * r
         h = np.sum(q**2, axis=2) + np.sum(ub**2, axis=2)  # (m, 6 + k): the hat matrix diagonal
