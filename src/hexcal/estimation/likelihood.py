@@ -19,10 +19,10 @@ are block diagonal over legs in each leg's own columns, the instrument rows lie 
 instrument's quantities. Time and memory grow linearly with the number of observations.
 
 One solver serves one identification and a stack of ``T`` (:class:`~hexcal.estimation.stacked.Stack`,
-a Monte Carlo study's trials): :func:`solve_ml`. It starts from the generalised least-squares
-estimate where every instrument gives the pose (the same estimator to first order, five times
-cheaper; with no instrument noise at all, least squares on the legs is the answer), else from the
-start values.
+a Monte Carlo study's trials): :func:`solve_ml`. It starts from the ``length`` estimate where
+every instrument gives the pose (with no instrument noise at all it is the answer), else from the
+start values, or from values given (:func:`fit_ml`'s ``start``: the noise estimate's first fit
+starts from the generalised least-squares estimate, the same estimator to first order).
 
 With instruments in their own frames, some combinations of parameters change no prediction
 (the gauge freedoms, :mod:`hexcal.estimation.gauge`): the solver varies only the directions
@@ -52,7 +52,6 @@ from hexcal.estimation.equations import (
     session_weights,
 )
 from hexcal.estimation.gauge import apply_convention, complement_basis, gauge_freedoms, unidentifiable
-from hexcal.estimation.gls import solve_stack_gls
 from hexcal.estimation.least_squares import converged_or_raise, fit_least_squares, solve_legs
 from hexcal.estimation.levenberg import (
     STATUS_CONVERGED,
@@ -74,11 +73,10 @@ _INNER_MAX_ITER = 20
 _INNER_TOL = 1e-12
 #: A pose step below this (relative) is rounding: the equations before it are final.
 _SETTLED = 1e-14
-#: Maximum likelihood starts from a ``gls`` estimate to this step tolerance (the same estimator
-#: to first order: a micrometre's step of it is no better start), near enough for its outer
-#: iteration to start with almost no damping; from the start values (an instrument that does
-#: not give the pose) it starts damped.
-ML_START_XTOL, ML_LAMBDA0, ML_LAMBDA_COLD = 1e-3, 1e-9, 1e-3
+#: Maximum likelihood starts from a ``length`` estimate to this step tolerance, near enough for
+#: its outer iteration to start with almost no damping; from the start values (an instrument that
+#: does not give the pose) it starts damped.
+ML_START_XTOL, ML_LAMBDA0, ML_LAMBDA_COLD = 1e-6, 1e-9, 1e-3
 
 
 # -- the inner problem: the true poses for given parameters -----------------------------------
@@ -265,8 +263,7 @@ class MaximumLikelihood:
         same = bool((fr == fr[0]).all())  # the same parameters of every leg: select before the product
         table = full[:, layout.leg_cols]
         leg_scale = st.scales[layout.leg_cols]
-        h, g = np.zeros((k, n, n)), np.zeros((k, n))
-        blocks, ate = np.zeros((k, 6, width, width)), np.zeros((k, 6, width))
+        h = g = blocks = ate = None  # sums over the sessions
         for p, (solver, point) in enumerate(zip(self.solvers, points, strict=True)):
             obs = solver.observations(idx)
             eqs, m = point.eqs, point.poses.shape[1]
@@ -298,10 +295,14 @@ class MaximumLikelihood:
                 whole[:, : layout.n_leg] = c[:, : layout.n_leg]
                 whole[:, span] = c[:, layout.n_leg :]
                 c = whole
-            h -= np.matmul(c, c.transpose(0, 2, 1))
-            g -= np.einsum("tcr,tr->tc", c, qte.transpose(1, 2, 0).reshape(k, -1))
-            blocks += np.matmul(js.transpose(0, 1, 3, 2), js)
-            ate += np.einsum("tijc,tji->tic", js, eqs.e_leg)
+            cct = np.matmul(c, c.transpose(0, 2, 1))
+            cqe = np.einsum("tcr,tr->tc", c, qte.transpose(1, 2, 0).reshape(k, -1))
+            jtj = np.matmul(js.transpose(0, 1, 3, 2), js)
+            jte = np.einsum("tijc,tji->tic", js, eqs.e_leg)
+            if h is None:
+                h, g, blocks, ate = -cct, -cqe, jtj, jte
+            else:
+                h, g, blocks, ate = h - cct, g - cqe, blocks + jtj, ate + jte
             if a_inst is not None:
                 h[:, span, span] += np.einsum("tjrq,tjrp->tqp", a_inst, a_inst)
                 g[:, span] += np.einsum("tjrq,tjr->tq", a_inst, eqs.e_inst)
@@ -353,7 +354,7 @@ class MaximumLikelihood:
         took = idx[accept]
         self.full[took], self.cost[took] = trial.full[accept], trial.cost[accept]
         for point, new in zip(self.points, trial.points, strict=True):
-            point.put(took, new.take(accept))
+            point.put(took, new.take(accept) if not accept.all() else new)
         if again.any():
             self._normal(trial.full[again], [p.take(again) for p in trial.points], idx[again])
 
@@ -383,7 +384,8 @@ def solve_ml(
 ) -> Solution:
     """Maximum likelihood of every trial of a stack (see the module), one noise model per
     session: from ``start`` ``(T, N)`` when given (a solution under other noise), else from the
-    ``gls`` estimate where every instrument gives the pose, else from the start values (damped).
+    ``length`` estimate where every instrument gives the pose, else from the start values
+    (damped).
     With gauge freedoms the values are under the gauge convention."""
     t = len(stack)
     alive = np.ones(t, dtype=bool) if alive is None else np.asarray(alive, dtype=bool)
@@ -399,9 +401,7 @@ def solve_ml(
     if start is not None:
         full, lam0 = np.array(start, dtype=float), ML_LAMBDA0
     elif stack.determines_pose:
-        full, status, iterations, cost, rank, _ = solve_stack_gls(
-            stack, noises, alive, rounds=1, xtol=ML_START_XTOL, max_iter=max_iter
-        )
+        full, status, iterations, cost, rank = solve_legs(stack, "length", alive, ML_START_XTOL, max_iter)
         alive = status == STATUS_CONVERGED
         lam0 = ML_LAMBDA0
     model = MaximumLikelihood(stack, full, noises, alive)
@@ -571,8 +571,8 @@ def fit_ml(
     polish : int
         Accepted for compatibility: the solver reaches the optimum within rounding.
     start : ndarray, shape (n_free,), optional
-        Solver variables to start from (a fit of the same problem under other noise), instead of
-        the ``gls`` estimate or the start values.
+        Solver variables to start from (a fit of the same problem under other noise, a ``gls``
+        estimate), instead of the ``length`` estimate or the start values.
     truncate : bool
         A solve out of iterations gives its last iterate (its ``status`` and ``message`` say so)
         instead of failing.

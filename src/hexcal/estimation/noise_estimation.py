@@ -370,6 +370,7 @@ def estimate_noise(
     >>> bool(0.7 < est.sigmas[1] / 0.02 < 1.3), bool(0.7 < est.sigmas[2] / 3e-4 < 1.3)
     (True, True)
     """
+    from hexcal.estimation.gls import solve_gls
     from hexcal.estimation.likelihood import Projection, fit_ml
 
     keys = problem_groups(problem)
@@ -381,7 +382,11 @@ def estimate_noise(
     # step under the current variances comes first: the update needs the residuals of the
     # fit for these variances, and residuals one step behind make it overshoot and
     # oscillate (40 iterations without converging instead of about 8)
-    x = _solver_variables(problem, fit_ml(problem, _session_noises(keys, sigmas, n_sessions), **options))
+    first = _session_noises(keys, sigmas, n_sessions)
+    # from the generalised least-squares estimate where the pose is measured (the same estimator to
+    # first order: with a gross misfit, a wrong Euler sequence, the likelihood has other minima)
+    gls = solve_gls(problem, first, 1, check=False)[0] if problem.determines_pose else None
+    x = _solver_variables(problem, fit_ml(problem, first, start=gls, **options))
     poses = None
     converged, it = False, 0
     falling = np.zeros(len(keys), dtype=int)  # consecutive steps each σ fell
