@@ -127,6 +127,54 @@ def test_import_of_export_gives_back_the_geometry(seed):
     assert_same_geometry(g, back)
 
 
+@pytest.mark.parametrize("euler", ["XYZ", "zyx", "ZYZ"])
+def test_import_keeps_the_geometrys_euler_sequence_workspace_and_name(euler):
+    # issue 31: an `euler: XYZ` geometry came back as xyz without its workspace box and name.
+    # The sequence, the name and the workspace's angle ranges travel as [TRAJ] HEXCAL_* keys,
+    # which LinuxCNC ignores; no [AXIS_A..C] is written (those are the user's A B C limits)
+    g = awkward().replace(euler=euler, name="hmt-2.cell_4")
+    files = export_linuxcnc(g)
+    ini = parse_ini(files[INI_FILE])
+    assert ini.get("AXIS_A", "MIN_LIMIT") is None
+    assert ini.get("TRAJ", "HEXCAL_EULER")[0] == euler
+    back, warnings = import_linuxcnc(files[HAL_FILE], files[INI_FILE])
+    assert warnings == []
+    assert back.euler == euler and back.name == "hmt-2.cell_4"
+    # the home pose's angles go through G-code's xyz degrees and back: a few roundings
+    for field in ("base_joints", "platform_joints", "initial_leg_lengths", "leg_gains", "leg_length_limits"):
+        assert np.array_equal(getattr(g, field), getattr(back, field)), field
+    assert np.array_equal(g.home_pose[:3], back.home_pose[:3])
+    np.testing.assert_allclose(back.home_pose[3:], g.home_pose[3:], rtol=0, atol=1e-14)
+    assert np.array_equal(g.workspace[:3], back.workspace[:3])
+    np.testing.assert_allclose(back.workspace[3:], g.workspace[3:], rtol=0, atol=1e-15)
+    # the same machine: the same leg lengths at the same poses
+    poses = g.workspace.mean(axis=1) + np.array([[0, 0, 0, 0, 0, 0], [5, -3, 2, 0.01, -0.02, 0.03]])
+    lengths = inverse_kinematics(g, poses)
+    np.testing.assert_allclose(inverse_kinematics(back, poses), lengths, rtol=0, atol=1e-9)
+
+
+def test_a_name_reaches_the_ini_only_as_one_safe_word():
+    # the INI is parsed by LinuxCNC: a name with a newline, '#', '=' or '[' must not reach it
+    g = awkward().replace(name="a\n[EMC]\nMACHINE = x # y")
+    files = export_linuxcnc(g)
+    assert "HEXCAL_NAME = a__EMC__MACHINE___x___y" in files[INI_FILE].split("\n")
+    assert not any(line.startswith(("[EMC]", "MACHINE")) for line in files[INI_FILE].split("\n"))
+    back, _ = import_linuxcnc(files[HAL_FILE], files[INI_FILE])
+    assert back.name == "a__EMC__MACHINE___x___y"
+    # a name given on import wins; without HEXCAL_NAME, [EMC] MACHINE, then "linuxcnc"
+    assert import_linuxcnc(files[HAL_FILE], files[INI_FILE], name="mine")[0].name == "mine"
+    plain = files[INI_FILE].replace("HEXCAL_NAME = a__EMC__MACHINE___x___y\n", "")
+    assert import_linuxcnc(files[HAL_FILE], plain)[0].name == "linuxcnc"
+    assert import_linuxcnc(files[HAL_FILE], "[EMC]\nMACHINE = cell4\n" + plain)[0].name == "cell4"
+
+
+def test_an_unknown_hexcal_euler_is_one_line_naming_file_and_line():
+    files = export_linuxcnc(awkward().replace(euler="XYZ"))
+    bad = files[INI_FILE].replace("HEXCAL_EULER = XYZ", "HEXCAL_EULER = XXY")
+    with pytest.raises(LinuxCNCFormatError, match=r"INI file: line \d+: \[TRAJ\] HEXCAL_EULER: .*XXY"):
+        import_linuxcnc(files[HAL_FILE], bad)
+
+
 def test_import_without_ini_takes_l0_at_the_home_pose_and_says_so():
     g = awkward()
     back, warnings = import_linuxcnc(export_linuxcnc(g)[HAL_FILE], home_pose=[0, 0, 800, 0, 0, 0])

@@ -145,6 +145,7 @@ def cmd_import(args: argparse.Namespace) -> None:
     output set before this runs: not an input, its folder writable)."""
     from hexcal.errors import GeometryError
     from hexcal.io import save_geometry
+    from hexcal.io.linuxcnc import sequence_note
     from hexcal.io.linuxcnc_import import import_linuxcnc
 
     out = Path(args.out)
@@ -177,5 +178,5 @@ def cmd_import(args: argparse.Namespace) -> None:
         _warn(warning)
     print(
         f"wrote the geometry of {args.hal}{' and ' + args.ini if args.ini else ''} to {out} "
-        + "(euler xyz: hexcal's a b c are G-code A B C in radians)"
+        + f"({sequence_note(geometry)})"
     )

@@ -96,9 +96,24 @@ _INI_WORDS = {"LINEAR_UNITS = mm", "ANGULAR_UNITS = degree", "COMP_FILE_TYPE = 1
     f"COMP_FILE = hexcal-comp-{n}.tbl" for n in range(6)
 }
 _INI_KEY = re.compile(
-    r"(HOME|HOME_OFFSET|MIN_LIMIT|MAX_LIMIT|HEXCAL_LEG_GAIN|HEXCAL_STROKE|HEXCAL_STROKE_DEGREE)"
-    r" = (?P<v>\S+( \S+)*)"
+    r"(HOME|HOME_OFFSET|MIN_LIMIT|MAX_LIMIT|HEXCAL_LEG_GAIN|HEXCAL_STROKE|HEXCAL_STROKE_DEGREE"
+    r"|HEXCAL_WORKSPACE_ANGLES|HEXCAL_HOME_ANGLES) = (?P<v>\S+( \S+)*)"
 )
+#: The two keys whose value is a word, not numbers: the geometry's name (letters, digits and
+#: ``_ . + -`` only: :func:`ini_name_word`) and its Euler sequence.
+_INI_WORD_KEYS = re.compile(r"HEXCAL_NAME = [A-Za-z0-9_.+-]{1,80}|HEXCAL_EULER = [xyzXYZ]{3}")
+_NAME_UNSAFE = re.compile(r"[^A-Za-z0-9_.+-]")
+
+
+def ini_name_word(name: str) -> str:
+    """A geometry's name as the one word ``HEXCAL_NAME`` carries: every character other than
+    a letter, digit, ``_``, ``.``, ``+`` or ``-`` becomes ``_`` (an INI value is parsed by
+    LinuxCNC; nothing else may reach it), cut to 80 characters.
+
+    >>> ini_name_word("paper hmt #2")
+    'paper_hmt__2'
+    """
+    return _NAME_UNSAFE.sub("_", str(name))[:MAX_VALUE_CHARS]
 
 
 def printable(value: object, most: int = MAX_VALUE_CHARS) -> str:
@@ -147,7 +162,7 @@ def check_export_lines(name: str, text: str) -> None:
         if hal:
             match = _HAL_LINE.fullmatch(line)
             values = [match["v"]] if match else None
-        elif _INI_SECTION.fullmatch(line) or line in _INI_WORDS:
+        elif _INI_SECTION.fullmatch(line) or line in _INI_WORDS or _INI_WORD_KEYS.fullmatch(line):
             continue
         else:
             match = _INI_KEY.fullmatch(line)
@@ -285,7 +300,18 @@ def export_linuxcnc(
         "[TRAJ]",
         "LINEAR_UNITS = mm",
         "ANGULAR_UNITS = degree",
+        "# the geometry's name and Euler sequence, for `hexcal import linuxcnc`",
     ]
+    if geometry.name and ini_name_word(geometry.name):
+        ini.append(f"HEXCAL_NAME = {ini_name_word(geometry.name)}")
+    ini.append(f"HEXCAL_EULER = {geometry.euler}")
+    if geometry.workspace is not None and geometry.euler != LINUXCNC_EULER:
+        angles = np.rad2deg(geometry.workspace[3:]).ravel()
+        ini += [
+            f"# the workspace's angle ranges in the sequence {geometry.euler} (not LinuxCNC's A B C),",
+            "# degrees: a_min a_max b_min b_max c_min c_max",
+            "HEXCAL_WORKSPACE_ANGLES = " + " ".join(_num(v) for v in angles),
+        ]
     home_lengths = None
     if geometry.home_pose is not None:
         from hexcal.core.kinematics import inverse_kinematics
@@ -298,6 +324,12 @@ def export_linuxcnc(
             f"HOME = {words}",
         ]
         home_lengths = inverse_kinematics(geometry, home)
+        if geometry.euler != LINUXCNC_EULER:
+            ini += [
+                f"# the home pose's angles in the sequence {geometry.euler}, degrees (the orientation of",
+                "# HOME's A B C; an import keeps these while they agree with HOME)",
+                "HEXCAL_HOME_ANGLES = " + " ".join(_num(v) for v in np.rad2deg(home[3:])),
+            ]
     ini.append("")
     from hexcal.core.kinematics import leg_lengths
 
@@ -352,7 +384,8 @@ def export_linuxcnc(
         else:
             ini += [
                 "# [AXIS_A], [AXIS_B], [AXIS_C]: not written; the workspace's angle ranges are in the",
-                f"# sequence {geometry.euler!r}, which is not a box in LinuxCNC's A B C",
+                f"# sequence {geometry.euler!r}, which is not a box in LinuxCNC's A B C ([TRAJ]",
+                "# HEXCAL_WORKSPACE_ANGLES keeps them for `hexcal import linuxcnc`)",
                 "",
             ]
     files = {HAL_FILE: "\n".join(hal).rstrip("\n") + "\n", INI_FILE: "\n".join(ini).rstrip("\n") + "\n"}
@@ -384,6 +417,13 @@ def _comp_lines(geometry: Geometry, n: int, table: object) -> list[str]:
         f"HEXCAL_STROKE = {_num(low[n])} {_num(high[n])}",
         f"HEXCAL_STROKE_DEGREE = {int(model.settings()[0])}",
     ]
+
+
+def sequence_note(geometry: Geometry) -> str:
+    """What an imported geometry's angles are, in a few words."""
+    if geometry.euler == LINUXCNC_EULER:
+        return "euler xyz: hexcal's a b c are G-code A B C in radians"
+    return f"euler {geometry.euler}, the exported geometry's: its a b c are not G-code's A B C"
 
 
 def euler_warning(geometry: Geometry) -> str | None:

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hexcal.core.conventions import check_euler
 from hexcal.core.geometry import Geometry
 from hexcal.io.linuxcnc import (
     GENHEXKINS_DEFAULT_BASE,
@@ -193,6 +194,57 @@ def _home_pose_radians(pose_deg: Sequence[float]) -> NDArray[np.float64]:
     pose = np.array(pose_deg, dtype=float)
     pose[3:] = np.deg2rad(pose[3:])
     return pose
+
+
+def _own_sequence(
+    geometry: Geometry, ini: IniFile, ini_name: str, scale: float, warnings: list[str]
+) -> Geometry:
+    """``geometry`` (Euler sequence ``xyz``: G-code's A B C) in the sequence of ``[TRAJ]
+    HEXCAL_EULER``, which :func:`~hexcal.io.linuxcnc.export_linuxcnc` writes: the home pose's
+    angles converted, the workspace's angle ranges those of ``HEXCAL_WORKSPACE_ANGLES`` (the
+    ``[AXIS_A..C]`` limits of such a machine are LinuxCNC's A B C, not its ranges)."""
+    from scipy.spatial.transform import Rotation
+
+    entry = ini.get("TRAJ", "HEXCAL_EULER")
+    if entry is None or entry[0].strip() == LINUXCNC_EULER:
+        return geometry
+    sequence = entry[0].strip()
+    try:
+        check_euler(sequence)
+    except ValueError as exc:
+        raise LinuxCNCFormatError(f"{ini_name}: line {entry[1]}: [TRAJ] HEXCAL_EULER: {exc}") from None
+    home = geometry.home_pose
+    if home is not None:
+        home = home.copy()
+        at_home = Rotation.from_euler(LINUXCNC_EULER, home[3:])
+        home[3:] = at_home.as_euler(sequence)
+        # the angles written beside HOME, while HOME still says the same orientation (one
+        # orientation has two sets of Euler angles: these are the geometry's own)
+        own = ini.numbers("TRAJ", "HEXCAL_HOME_ANGLES")
+        if own is not None and len(own) == 3:
+            angles = np.deg2rad(own)
+            if (Rotation.from_euler(sequence, angles) * at_home.inv()).magnitude() < 1e-9:
+                home[3:] = angles
+    workspace = None
+    if geometry.workspace is not None or ini.number("AXIS_X", "MIN_LIMIT") is not None:
+        angles = ini.numbers("TRAJ", "HEXCAL_WORKSPACE_ANGLES")
+        box = [(ini.number(f"AXIS_{a}", "MIN_LIMIT"), ini.number(f"AXIS_{a}", "MAX_LIMIT")) for a in "XYZ"]
+        if angles is None or len(angles) != 6 or any(v is None for pair in box for v in pair):
+            warnings.append(
+                f"{ini_name}: the geometry's sequence is {sequence}, and [AXIS_X..Z] with [TRAJ] "
+                "HEXCAL_WORKSPACE_ANGLES (6 values) do not give its workspace: no workspace box taken"
+            )
+        else:
+            ranges = np.deg2rad(np.reshape(angles, (3, 2)))
+            arr = np.vstack([np.array(box, dtype=float) * scale, ranges])
+            if np.any(arr[:, 0] > arr[:, 1]) or np.any(np.abs(ranges) > np.pi):
+                warnings.append(
+                    f"{ini_name}: a workspace minimum exceeds its maximum, or an angle range goes "
+                    "beyond ±180 degrees: no workspace taken"
+                )
+            else:
+                workspace = arr
+    return geometry.replace(euler=sequence, home_pose=home, workspace=workspace)
 
 
 def import_linuxcnc(
@@ -409,8 +461,9 @@ def import_linuxcnc(
                 workspace = arr
 
     if name is None:
+        own = ini.get("TRAJ", "HEXCAL_NAME") if ini is not None else None
         machine = ini.get("EMC", "MACHINE") if ini is not None else None
-        name = machine[0] if machine else "linuxcnc"
+        name = own[0].strip() if own else machine[0] if machine else "linuxcnc"
     geometry = geometry_mm.replace(
         initial_leg_lengths=l0,
         leg_gains=gains,
@@ -419,6 +472,8 @@ def import_linuxcnc(
         workspace=workspace,
         name=name,
     )
+    if ini is not None:  # the geometry's own Euler sequence, where hexcal's export wrote it
+        geometry = _own_sequence(geometry, ini, ini_name, scale, warnings)
     if ini is not None:  # joint compensation tables: a stroke leg model (hexcal.io.linuxcnc_comp)
         from hexcal.io.linuxcnc_checks import check_comp_tables, check_imported_model, comp_file_tables
         from hexcal.io.linuxcnc_comp import import_comp_tables
