@@ -21,7 +21,8 @@ at once, each iteration on the problems still active:
   optimum, not merely within ``xtol |x|`` of it. Where the rounding of the gradient moves the
   steps more than that (a gross error's large residuals, an ill-conditioned optimum), the
   problem has converged after :data:`STALL` Gauss–Newton steps in a row that neither shrink
-  tenfold nor promise a decrease beyond the rounding of the cost.
+  tenfold nor promise a decrease beyond the rounding of the cost, or after :data:`NO_PROGRESS`
+  iterations in a row that lower the lowest cost so far by no more than its rounding.
 
 ``scipy.optimize.least_squares`` decides by the cost alone and cannot batch: it stops up to about
 1e-5 mm short of the optimum in weakly determined directions of the ``paper`` cost, and one
@@ -60,6 +61,13 @@ ROUNDING = 64 * np.finfo(float).eps
 
 #: Gauss–Newton steps in a row within the rounding of the cost, not shrinking, that end a solve.
 STALL = 10
+
+#: Iterations in a row that lower the lowest cost so far by no more than its rounding, that end a
+#: solve: where the normal equations are those of an approximate Jacobian (the variable
+#: projection's), the Gauss–Newton step from the optimum raises the cost, the damping grows, and
+#: damped steps wander within the rounding of the cost without ever becoming Gauss–Newton steps
+#: (a frame and tool re-registered on the Jugglebot's session: 3000 iterations at 29.0744412622).
+NO_PROGRESS = 20
 
 
 class Model(Protocol):
@@ -217,6 +225,7 @@ def minimise(
     lam = np.broadcast_to(np.asarray(lam0, dtype=float), (b,)).copy()
     nu = np.full(b, 2.0)
     previous, stalled = np.full(b, np.inf), np.zeros(b, dtype=int)
+    best, idle = np.full(b, np.inf), np.zeros(b, dtype=int)
     for _ in range(max_iter):
         idx = np.flatnonzero(active)
         if idx.size == 0:
@@ -248,7 +257,12 @@ def minimise(
         )
         stalled[idx] = np.where(flat, stalled[idx] + 1, 0)
         previous[idx] = np.where(accept, size, previous[idx])
-        small = (small & newton) | (stalled[idx] >= STALL)
+        # progress: the lowest cost so far lowered beyond its rounding (the floor counts once)
+        lowest = np.minimum(best[idx], cost)
+        progress = accept & (trial.cost < lowest * (1.0 - COST_ROUNDING) - floor[idx])
+        idle[idx] = np.where(progress, 0, idle[idx] + 1)
+        best[idx] = np.where(accept, np.minimum(lowest, trial.cost), lowest)
+        small = (small & newton) | (stalled[idx] >= STALL) | (idle[idx] >= NO_PROGRESS)
         model.take(idx, trial, accept, accept & ~small)
         status[idx[small]] = STATUS_CONVERGED
         status[idx[~finite]] = STATUS_NONFINITE
