@@ -196,4 +196,5 @@ def test_halrun_loads_it_after_motion_and_holds_zero_until_homed():
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     values = [float(v) for v in re.findall(r"^(-?\d\S*)$", done.stdout, re.M)]
     assert values == [0.0] * 6  # not homed: no offset, whatever the temperature
-    assert re.search(r"hexcal-drive-cmd-0\s*\n\s*<== hexcal-thermal-0\.out\s*\n\s*==> sim-drive-0\.in", done.stdout)
+    wiring = r"hexcal-drive-cmd-0\s*\n\s*<== hexcal-thermal-0\.out\s*\n\s*==> sim-drive-0\.in"
+    assert re.search(wiring, done.stdout)
