@@ -125,7 +125,8 @@ DRIVER = textwrap.dedent(
                              "position": list(s.position[:6]),
                              "motor_cmd": [hal.get_value("joint.%d.motor-pos-cmd" % n) for n in range(6)],
                              "comp": [hal.get_value("joint.%d.backlash-filt" % n) for n in range(6)],
-                             "comp_target": [hal.get_value("joint.%d.backlash-corr" % n) for n in range(6)]})
+                             "comp_target": [hal.get_value("joint.%d.backlash-corr" % n) for n in range(6)],
+                             "record": {p: hal.get_value(p) for p in job.get("record", [])}})
             out["batches"].append(rows)
     except Exception:
         out["error"] = traceback.format_exc()
@@ -275,6 +276,8 @@ def run(
     timeout: float = 60.0,
     wait_timeout: float = 10.0,
     files: dict[str, str] | None = None,
+    machine_hal: str | None = None,
+    record: list[str] | None = None,
 ) -> dict[str, Any]:
     """Run LinuxCNC once over ``batches`` of ``(kins HAL text, poses X Y Z A B C)``.
 
@@ -282,7 +285,8 @@ def run(
     and ``files`` are written into the configuration's folder beside the INI (the tables).
     Each pose's row also has the joints' ``motor_cmd`` (``joint.N.motor-pos-cmd``), the
     compensation applied (``comp``, ``joint.N.backlash-filt``) and its target (``comp_target``,
-    ``joint.N.backlash-corr``).
+    ``joint.N.backlash-corr``). ``machine_hal`` replaces :data:`MACHINE_HAL` (the simulated
+    hardware), and each row's ``record`` holds the values of the HAL pins named in ``record``.
 
     Returns the driver's result: ``{"batches": [[{"joints", "joints_cmd", "position"}, ...]],
     "seconds": wall time}``. Raises :class:`LinuxCNCRunError` when the run fails.
@@ -297,7 +301,7 @@ def run(
     driver = workdir / "driver.py"
     driver.write_text(DRIVER)
     driver.chmod(0o755)
-    (workdir / "machine.hal").write_text(MACHINE_HAL)
+    (workdir / "machine.hal").write_text(MACHINE_HAL if machine_hal is None else machine_hal)
     for name, text in (files or {}).items():
         (workdir / name).write_text(text)
     (workdir / "sim.tbl").write_text("T1 P1 Z0 ;\n")
@@ -308,6 +312,7 @@ def run(
     job = {
         "timeout": wait_timeout,
         "result": str(result_path),
+        "record": list(record or []),
         # the first batch's file is loaded by the INI already
         "batches": [
             {"hal": None if k == 0 else hal_paths[k], "poses": p} for k, (_, p) in enumerate(batches)

@@ -139,7 +139,8 @@ def comment_line(text: str) -> str:
     return line
 
 
-def _comment_ok(line: str) -> bool:
+def comment_ok(line: str) -> bool:
+    """Whether ``line`` is a comment as :func:`comment_line` writes it (one safe line)."""
     return (
         line.startswith("#")
         and line.isprintable()
@@ -157,7 +158,7 @@ def check_export_lines(name: str, text: str) -> None:
     """
     hal = name.endswith(".hal")
     for number, line in enumerate(text.split("\n")[:-1] if text.endswith("\n") else text.split("\n"), 1):
-        if not line or _comment_ok(line):
+        if not line or comment_ok(line):
             continue
         if hal:
             match = _HAL_LINE.fullmatch(line)
