@@ -131,16 +131,23 @@ def inverse_kinematics(geometry: Geometry, poses: ArrayLike) -> NDArray[np.float
     return out.reshape(poses.shape)
 
 
-def leg_readings(geometry: Geometry, lengths: ArrayLike) -> NDArray[np.float64]:
+def leg_readings(
+    geometry: Geometry, lengths: ArrayLike, inputs: ArrayLike | None = None
+) -> NDArray[np.float64]:
     """Leg readings of absolute leg lengths through the geometry's leg model (``(l - l0) / g``
-    for linear legs), shape ``(..., 6)``."""
-    return geometry.leg_model.readings(geometry.leg_block(), lengths)
+    for linear legs), shape ``(..., 6)``; ``inputs`` ``(..., 6, K)`` are each pose's for a leg
+    model with covariates (:meth:`hexcal.core.legs.LegModel.leg_inputs`)."""
+    if inputs is None:
+        return geometry.leg_model.readings(geometry.leg_block(), lengths)
+    return geometry.leg_model.readings(geometry.leg_block(), lengths, inputs)
 
 
-def leg_lengths(geometry: Geometry, readings: ArrayLike) -> NDArray[np.float64]:
+def leg_lengths(
+    geometry: Geometry, readings: ArrayLike, inputs: ArrayLike | None = None
+) -> NDArray[np.float64]:
     """Absolute leg lengths of leg readings through the geometry's leg model (``l0 + g dl``
-    for linear legs), shape ``(..., 6)``."""
-    return geometry.leg_model.lengths(geometry.leg_block(), readings)
+    for linear legs), shape ``(..., 6)``; ``inputs`` as in :func:`leg_readings`."""
+    return geometry.leg_model.lengths(geometry.leg_block(), readings, inputs)
 
 
 def pose_jacobian_from_arrays(
