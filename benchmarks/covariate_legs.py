@@ -26,7 +26,8 @@ import numpy as np
 
 from hexcal.calibration import validate
 from hexcal.core import NoiseModel, compensate, pose_errors, preset, random_poses
-from hexcal.core.covariate_legs import CovariateLegs, forward_with_covariates
+from hexcal.core.covariate_legs import CovariateLegs
+from hexcal.core.kinematics import forward_with_covariates
 from hexcal.core.stroke_legs import with_leg_model
 from hexcal.simulation import constant_temperature, payload_cases, simulate_session, warm_up
 from hexcal.workflow import calibrate

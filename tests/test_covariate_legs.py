@@ -19,10 +19,9 @@ from hexcal.core.covariate_legs import (
     KINDS,
     CovariateLegs,
     axial_forces,
-    forward_with_covariates,
     geometry_inputs,
 )
-from hexcal.core.kinematics import inverse_kinematics, leg_lengths, leg_readings
+from hexcal.core.kinematics import forward_with_covariates, inverse_kinematics, leg_lengths, leg_readings
 from hexcal.core.legs import LEG_MODELS, LinearLegs
 from hexcal.core.stroke_legs import StrokeLegs, with_leg_model
 from hexcal.errors import InputError
@@ -321,3 +320,16 @@ def test_linear_legs_miss_what_the_covariate_models_reach():
     legs, worst = held_out(nominal, true, fit, held, constant_temperature(40, 30.0), 4)
     reference, _ = held_out(nominal, true, true, held, constant_temperature(40, 30.0), 4)
     assert legs > 10 * reference and worst > 0.05
+
+
+def test_a_warm_up_calibrated_with_its_temperatures_passes():
+    """One session of 80 poses whose legs warm from 20 °C by about 6 K (each leg its share):
+    with its temperatures (thermal) the verdict passes; with linear legs, the growth is a drift
+    in acquisition order, and the verdict names it (the benchmark: fail, drift)."""
+    nominal, true = true_machine(CovariateLegs(thermal=True), KT)
+    cov = warm_up(80, 20.0, 6.0, legs=[1.0, 0.8, 1.2, 0.9, 1.1, 1.0])
+    session = sessions_at(nominal, true, [cov], 6)
+    warm = calibrate(nominal, session, leg_model="thermal").result.verdict
+    assert warm.status == "pass", warm.codes()
+    cold = calibrate(nominal, session, leg_model="linear").result.verdict
+    assert "drift" in cold.codes("fail") + cold.codes("warn")

@@ -31,8 +31,10 @@ session, is then part of the geometry the calibration fits.
 
 The per-pose inputs are ``ΔT_i = T_i - T_ref`` (K) and ``F_i`` (N): the columns
 :attr:`CovariateLegs.inputs` of the array ``(m, 6, K)`` that the leg equations receive beside
-the readings (:meth:`CovariateLegs.leg_inputs`). Without inputs (planning, the predicted
-accuracy over a workspace) the model is at its reference conditions: ``ΔT = 0``, no force.
+the readings (:meth:`CovariateLegs.leg_inputs`; the poses of readings under them:
+:func:`hexcal.core.kinematics.forward_with_covariates`). Without inputs (planning, the
+predicted accuracy over a workspace) the model is at its reference conditions: ``ΔT = 0``, no
+force.
 
 The geometry file's form, beside the stroke model's::
 
@@ -465,32 +467,36 @@ def geometry_inputs(
     return model.leg_inputs(covariates, None if poses is None else as_poses(poses, "poses"), geometry, where)
 
 
-def forward_with_covariates(
-    geometry: Any,
-    readings: ArrayLike,
-    covariates: Any,
-    guess: ArrayLike,
-    where: str = "the data",
-    sensor: ArrayLike | None = None,
-) -> tuple[Any, NDArray[np.float64] | None]:
-    """The poses of ``readings`` ``(m, 6)`` on ``geometry`` under each pose's ``covariates``
-    (forward kinematics from ``guess``; ``sensor`` mm added to the lengths), and the inputs used.
+def at_conditions(geometry: Any, covariates: Any, where: str = "the program") -> Any:
+    """``geometry`` with the legs of its covariate model under one set of conditions, the same
+    at every pose (``covariates`` of one row): its base model (linear or stroke) with the
+    thermal term folded into its parameters (``l0 + kt ΔT``, or every length parameter times
+    ``1 + cte ΔT``). A model without covariates is returned as it is; one whose inputs depend
+    on the pose (compliance: the axial forces) cannot be folded and is refused in one line.
 
-    The axial forces of a compliance term depend on the pose: they are taken at ``guess``, then
-    once more at the poses found (the first order of the module: a second pass changes the
-    poses by parts in 10⁵ of the deflection). Returns the
-    :class:`~hexcal.core.kinematics.ForwardResult` and the inputs ``(m, 6, K)`` (None for a
-    model without covariates)."""
-    from hexcal.core.kinematics import forward_kinematics, leg_lengths
-
-    readings = np.asarray(readings, dtype=float)
-    extra = 0.0 if sensor is None else np.asarray(sensor, dtype=float)
-    inputs = geometry_inputs(geometry, covariates, guess, where)
-    fk = forward_kinematics(geometry, leg_lengths(geometry, readings, inputs) + extra, guess=guess)
-    if inputs is not None and geometry.leg_model.inputs_need_poses and fk.all_converged:
-        inputs = geometry_inputs(geometry, covariates, fk.poses, where)
-        fk = forward_kinematics(geometry, leg_lengths(geometry, readings, inputs) + extra, guess=fk.poses)
-    return fk, inputs
+    For a program of moves (``compensate --gcode``) whose every point is made at one temperature."""
+    model = geometry.leg_model
+    if not isinstance(model, CovariateLegs):
+        return geometry
+    if model.inputs_need_poses:
+        raise InputError(
+            f"{where}: the {model.name} leg model's axial forces change along the path, which the "
+            "program filter does not follow; compensate the program's poses (--poses, --payload)"
+        )
+    inputs = model.leg_inputs(covariates, where=where)  # (1, 6, 1): each leg's ΔT
+    dt = inputs[0, :, 0]
+    block = geometry.leg_block()
+    theta = model.thetas(block)  # (6, per_leg)
+    base = theta[:, : model.base.per_leg].copy()
+    coefficient = theta[:, model.base.per_leg]
+    if model.per_length:
+        base *= (1.0 + coefficient * dt)[:, None]
+    else:
+        base[:, 0] += coefficient * dt
+    terms = base[:, 2:] if model.base.terms else None
+    return geometry.replace(
+        leg_model=model.base, initial_leg_lengths=base[:, 0], leg_gains=base[:, 1], leg_terms=terms
+    )
 
 
 def _number(value: Any, what: str) -> float:

@@ -37,7 +37,7 @@ from hexcal.core import (
     leg_vectors_from_arrays,
     pose_errors,
 )
-from hexcal.core.covariate_legs import forward_with_covariates
+from hexcal.core.kinematics import forward_with_covariates
 from hexcal.core.legs import LegModel, LinearLegs
 from hexcal.core.parameters import JOINT_NAMES, PARAMETER_NAMES
 from hexcal.errors import SimulationError
