@@ -107,7 +107,8 @@ def test_the_geometry_example_is_the_preset_as_hexcal_writes_it(tmp_path) -> Non
 def test_geometry_fragments_load_into_the_example(tmp_path, block) -> None:
     [(_, base, _)] = _of("geometry")
     geometry = hexcal.load_geometry(_write(tmp_path, base + block[1], "g.yaml"))
-    assert geometry.leg_model.name == "linear"
+    kind = re.search(r"kind: (\S+)", block[1])
+    assert geometry.leg_model.name == (kind.group(1) if kind else "linear")
 
 
 @pytest.mark.parametrize("block", _of("setup"), ids=lambda b: f"line{b[2]}")

@@ -46,6 +46,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from hexcal.core.covariate_legs import CovariateLegs, covariate_model, parse_kind
 from hexcal.core.geometry import Geometry
 from hexcal.core.legs import LEG_MODELS, LegModel, LinearLegs
 from hexcal.core.progress import task
@@ -62,6 +63,15 @@ from hexcal.instruments.base import Session
 
 #: The candidates of ``auto``, simplest first.
 CANDIDATES = ("linear", "stroke:2", "stroke:3", "stroke:4")
+#: Candidates ``auto`` adds when the data carry the covariates they read (simplest first).
+COVARIATE_CANDIDATES = (
+    "thermal",
+    "compliance",
+    "thermal+compliance",
+    "stroke:3+thermal",
+    "stroke:3+compliance",
+    "stroke:3+thermal+compliance",
+)
 
 #: Folds of the cross-validation over the poses of one session.
 DEFAULT_FOLDS = 5
@@ -69,15 +79,21 @@ DEFAULT_FOLDS = 5
 
 def parse_leg_model(spec: str) -> tuple[str, int | None]:
     """``(name, degree)`` of a ``--leg-model`` value: ``auto``, a registered name, or
-    ``stroke:DEGREE``; :class:`UsageError` naming the choices otherwise."""
-    name, _, degree = str(spec).strip().partition(":")
+    ``stroke:DEGREE``, each optionally with covariate terms (``stroke:2+thermal``);
+    :class:`UsageError` naming the choices otherwise."""
+    head, plus, terms = str(spec).strip().partition("+")
+    base, _, degree = head.partition(":")
+    name = base + plus + terms
     if name == "auto" and not degree:
         return name, None
     if name not in LEG_MODELS:
-        raise UsageError(f"--leg-model {spec!r}: choose auto, {', '.join(LEG_MODELS)} (stroke:DEGREE)")
+        raise UsageError(
+            f"--leg-model {spec!r}: choose auto, {', '.join(LEG_MODELS)} "
+            "(stroke:DEGREE, stroke:DEGREE+thermal)"
+        )
     if not degree:
-        return name, DEFAULT_DEGREE if name == StrokeLegs.name else None
-    if name != StrokeLegs.name or not degree.isdigit():
+        return name, DEFAULT_DEGREE if base == StrokeLegs.name else None
+    if base != StrokeLegs.name or not degree.isdigit():
         raise UsageError(f"--leg-model {spec!r}: only the stroke model takes a degree, e.g. stroke:3")
     return name, int(degree)
 
@@ -87,13 +103,20 @@ def model_for(spec: str, geometry: Geometry, sessions: Sequence[Session] = ()) -
     name, degree = parse_leg_model(spec)
     if name == "auto":
         raise UsageError("--leg-model auto: choose the model first (choose_leg_model)")
-    if name == LinearLegs.name:
-        return LinearLegs()
-    if name == StrokeLegs.name:
+    base = name.split("+")[0]
+    if base == LinearLegs.name:
+        model: LegModel = LinearLegs()
+    elif base == StrokeLegs.name:
         readings = [s.instrument.readings(s.data) for s in sessions]
         low, high = stroke_of(geometry, np.concatenate(readings) if readings else None)
-        return StrokeLegs(int(degree or DEFAULT_DEGREE), low, high)
-    return LEG_MODELS[name]()
+        model = StrokeLegs(int(degree or DEFAULT_DEGREE), low, high)
+    elif "+" not in name and LEG_MODELS[name] is not CovariateLegs:
+        return LEG_MODELS[name]()
+    else:
+        model = LinearLegs()
+    if LEG_MODELS[name] is CovariateLegs:
+        return covariate_model(name, model, geometry.leg_model)
+    return model
 
 
 def start_for(spec: str, geometry: Geometry, sessions: Sequence[Session] = ()) -> Geometry:
@@ -102,14 +125,40 @@ def start_for(spec: str, geometry: Geometry, sessions: Sequence[Session] = ()) -
 
 
 def fit_for(fit: str | Sequence[str] | None, model: LegModel, default: str = "joints,l0") -> Any:
-    """The fitted groups with the model's own group added (when it has terms)."""
+    """The fitted groups with the model's own groups added (when it has terms: ``stroke``,
+    ``thermal``, ``compliance``)."""
     fit = default if fit is None else fit
     if not model.terms:
         return fit
     groups = [g.strip() for g in fit.split(",")] if isinstance(fit, str) else list(fit)
-    if model.name in groups:
+    add = [g for g in model.own_groups() if g not in groups]
+    if not add:
         return fit
-    return ",".join([*groups, model.name]) if isinstance(fit, str) else [*groups, model.name]
+    return ",".join([*groups, *add]) if isinstance(fit, str) else [*groups, *add]
+
+
+def auto_candidates(sessions: Sequence[Session]) -> tuple[str, ...]:
+    """The candidates of ``auto`` for ``sessions``: :data:`CANDIDATES`, and, when every session
+    carries the covariates a model of :data:`COVARIATE_CANDIDATES` reads (the legs'
+    temperatures, the payload's mass), that model too."""
+    have = (
+        set.intersection(*(set(s.instrument.covariates(s.data).names()) for s in sessions))
+        if sessions
+        else set()
+    )
+    extra = []
+    for spec in COVARIATE_CANDIDATES:
+        needs = model_needs(spec)
+        if needs and needs <= have:
+            extra.append(spec)
+    return CANDIDATES + tuple(extra)
+
+
+def model_needs(spec: str) -> set[str]:
+    """The covariates the model ``spec`` reads (none for a model of readings alone)."""
+    name, _ = parse_leg_model(spec)
+    _, thermal, compliance = parse_kind(name) if LEG_MODELS[name] is CovariateLegs else ("", False, False)
+    return {name for name, used in (("temperatures", thermal), ("payload_kg", compliance)) if used}
 
 
 @dataclass(frozen=True)
@@ -288,7 +337,7 @@ def _pose_folds(session: Session, folds: int) -> int:
 def choose_leg_model(
     start: Geometry,
     sessions: Sequence[Session],
-    candidates: Iterable[str] = CANDIDATES,
+    candidates: Iterable[str] | None = None,
     *,
     method: str = "ml",
     fit: str | Sequence[str] | None = None,
@@ -305,8 +354,9 @@ def choose_leg_model(
     start : Geometry
         The nominal machine (any leg model: each candidate replaces it).
     sessions : sequence of Session
-    candidates : iterable of str
-        ``--leg-model`` values, simplest first (default :data:`CANDIDATES`).
+    candidates : iterable of str, optional
+        ``--leg-model`` values, simplest first (default :func:`auto_candidates`: the models of
+        readings, and those with covariates the sessions carry).
     method, fit, fix, noise
         As :func:`hexcal.calibration.estimate` (the model's own group is added to ``fit``);
         a noise learned from the data (``"auto"``) is learned once per candidate from all the
@@ -324,7 +374,7 @@ def choose_leg_model(
     """
 
     sessions = list(sessions)
-    candidates = list(candidates)
+    candidates = list(auto_candidates(sessions) if candidates is None else candidates)
     if not sessions:
         raise UsageError("choose_leg_model: no session")
     if not candidates:

@@ -180,7 +180,7 @@ def _families(
             z[:, 6:] = dsetup[:, :, cols]
             out[group] = (z, tuple(names))
     block = full[problem.leg_block]
-    dl0 = problem.legs.jacobian(block, part.readings)[..., :6]  # (m, 6 legs, 6 l0)
+    dl0 = problem.legs.jacobian(block, part.readings, part.inputs)[..., :6]  # (m, 6 legs, 6 l0)
     z = np.zeros((m, 6 + k, 6))
     z[:, :6] = -dl0 / sigma
     out["legs"] = (z, tuple(f"l0_{i}" for i in range(1, 7)))

@@ -41,6 +41,7 @@ from hexcal.calibration.accuracy import expected_validation, machine_mask
 from hexcal.calibration.identify import register_sessions
 from hexcal.calibration.limits import VALIDATION_FOLDS
 from hexcal.calibration.reregistration import quantity_mask, reregister, undetermined_quantities
+from hexcal.core.covariate_legs import geometry_inputs
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, pose_errors
 from hexcal.core.noise import NoiseModel
@@ -435,8 +436,10 @@ def _evaluate(geometry: Geometry, session: Session) -> ValidationResult:
         raise ValidationError("validation needs the instrument frame (it is auto): register it first")
     ids = inst.ids(values)
     readings = inst.readings(values)
-    lengths = leg_lengths(geometry, readings)
     start = inst.start_poses(geometry, setup, values)
+    # each pose's conditions (a leg model with covariates; forces at the start poses: first order)
+    inputs = geometry_inputs(geometry, inst.covariates(values), start, session.label or "the held-out data")
+    lengths = leg_lengths(geometry, readings, inputs)
     fk = forward_kinematics(geometry, lengths, guess=start)
     if not fk.all_converged:
         bad = [ids[k] for k in np.flatnonzero(~fk.converged)]

@@ -93,6 +93,29 @@ def table_options(p: argparse.ArgumentParser, what: str, note: str = "", dialect
         p.add_argument("--decimal", choices=(".", ","), help=f"decimal mark of {what} (default: detected)")
 
 
+def condition_options(p: argparse.ArgumentParser) -> None:
+    """Add ``--temperature`` and ``--payload``: one value for every row, for a leg model with
+    covariates (docs/leg-models.md)."""
+    p.add_argument("--temperature", type=float, metavar="C", help="the legs' temperature, °C, for every row")
+    p.add_argument(
+        "--payload",
+        type=payload_value,
+        metavar="KG[,X,Y,Z]",
+        help="the payload's mass, kg, and optionally its centre of mass, mm, platform frame, for every row",
+    )
+
+
+def payload_value(text: str) -> tuple[float, ...]:
+    """``--payload KG[,X,Y,Z]`` as numbers (their checks are the library's)."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected KG or KG,X,Y,Z (numbers), got {text!r}") from None
+    if len(values) not in (1, 4):
+        raise argparse.ArgumentTypeError(f"expected KG or KG,X,Y,Z, got {len(values)} numbers")
+    return values
+
+
 def table_reading(args: argparse.Namespace) -> dict[str, Any]:
     """The reader options of ``--columns``, ``--delimiter`` and ``--decimal`` (keywords of the
     readers of :mod:`hexcal.io`)."""

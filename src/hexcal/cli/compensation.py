@@ -20,6 +20,7 @@ from hexcal.cli.common import (
     PRESET_NAMES,
     CommandError,
     check_outputs,
+    condition_options,
     id_list,
     load_geometry,
     show_defaults,
@@ -44,6 +45,7 @@ def cmd_compensate(args: argparse.Namespace) -> None:
         _compensate_program(args)
         return
     from hexcal.core import compensate, stroke_excess
+    from hexcal.instruments import conditions_text, with_conditions
     from hexcal.io import read_table, table_covariates, table_poses, write_legs
 
     check_outputs(args.out, args.corrected_poses)
@@ -53,7 +55,8 @@ def cmd_compensate(args: argparse.Namespace) -> None:
     table = read_table(args.poses, **table_reading(args))
     targets, ids, covariates = table_poses(table, geometry.euler), table.ids(), table_covariates(table)
     nominal = load_geometry(args.nominal, geometry.euler) if args.nominal else None
-    comp = compensate(geometry, targets, ids, nominal)
+    covariates = with_conditions(covariates, len(targets), args.temperature, args.payload, args.poses)
+    comp = compensate(geometry, targets, ids, nominal, covariates=covariates)
     bad = comp.infeasible_ids
     if bad and not args.skip_infeasible:
         raise CommandError(
@@ -79,7 +82,9 @@ def cmd_compensate(args: argparse.Namespace) -> None:
         print(f"wrote corrected target poses for the nominal controller to {args.corrected_poses}")
     if bad:
         warn(f"hexcal: warning: skipped {len(bad)} infeasible target(s): {id_list(list(bad))}")
-    print(f"wrote leg commands for {len(kept_ids)} target(s) to {args.out}")
+    said = conditions_text(covariates) if geometry.leg_model.covariates else None
+    at = f" ({geometry.leg_model.name} legs: {said})" if said else ""
+    print(f"wrote leg commands for {len(kept_ids)} target(s) to {args.out}{at}")
 
 
 def _write_poses_like(table: Any, path: str, poses: Any, ids: list[str], euler: str, covariates: Any) -> None:
@@ -231,12 +236,17 @@ def _compensate_program(args: argparse.Namespace) -> None:
 
     from hexcal.calibration import poses_stroke_excess
     from hexcal.core import PathError, correct_path, correct_poses
+    from hexcal.core.covariate_legs import at_conditions
     from hexcal.errors import InputError
+    from hexcal.instruments import conditions_text, with_conditions
     from hexcal.io import atomic_write, gcode
 
     _check_program_options(args)
     geometry = load_geometry(args.geometry, args.euler)
     nominal = load_geometry(args.nominal, geometry.euler)
+    conditions = with_conditions(None, 1, args.temperature, args.payload, args.gcode)
+    said = conditions_text(conditions) if geometry.leg_model.covariates else None
+    geometry = at_conditions(geometry, conditions, args.gcode)  # every point made under them
     start = _start(args, geometry)
     try:
         start_corrected = correct_poses(geometry, nominal, start[None], [0])[0]
@@ -258,6 +268,8 @@ def _compensate_program(args: argparse.Namespace) -> None:
         f"start pose assumed, mm and deg: {_pose_words(start)}",
         f"the controller's pose there: {_pose_words(start_corrected)}",
     )]  # fmt: skip
+    if said:  # numbers only: the conditions the program was made for
+        header.append(gcode.gcode_comment(f"made for: {said.replace('°C', 'C')}"))
     size = max(1, os.stat(args.gcode).st_size)
     began, shown, moves, points, lines = time.perf_counter(), 0, 0, 0, 0
     worst = [0.0, 0.0]
@@ -324,6 +336,7 @@ def register(sub: Any) -> None:
         help="with --gcode: pose X,Y,Z,A,B,C (mm, degrees) before the program (default: the home pose)",
     )
     p.add_argument("--quiet", action="store_true", help="with --gcode: no progress lines")
+    condition_options(p)
     table_options(p, "--poses")
     p.set_defaults(
         func=cmd_compensate,

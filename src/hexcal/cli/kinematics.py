@@ -15,6 +15,7 @@ from hexcal.cli.common import (
     GEOMETRY_HELP,
     PRESET_NAMES,
     CommandError,
+    condition_options,
     id_list,
     load_geometry,
     show_defaults,
@@ -49,28 +50,37 @@ def cmd_ik(args: argparse.Namespace) -> None:
     """
     import numpy as np
 
-    from hexcal.core import inverse_kinematics, is_feasible, leg_readings, stroke_excess
+    from hexcal.core import geometry_inputs, inverse_kinematics, is_feasible, leg_readings, stroke_excess
+    from hexcal.instruments import conditions_text, with_conditions
     from hexcal.io import LEG_LENGTH_COLUMNS, LEG_READING_COLUMNS, iter_poses, write_table_blocks
 
     geometry = load_geometry(args.geometry, args.euler)
     bad: list[str] = []
     outside = 0
     beyond = None
+    said: list[str] = []
+
+    def given(poses: Any, covariates: Any) -> Any:  # the file's conditions, or the options'
+        return with_conditions(covariates, len(poses), args.temperature, args.payload, args.poses)
 
     read = iter_poses(args.poses, geometry.euler, **table_reading(args), covariates=True)
-    first = [next(read)]  # its covariate columns are the file's
-    extra = tuple(first[0][2].to_columns())
+    first = [next(read)]  # its covariate columns (with the options') are the output's
+    extra = tuple(given(first[0][0], first[0][2]).to_columns())
 
     def blocks() -> Any:
         nonlocal outside, beyond
         for poses, ids, covariates in _first_then(first, read):
+            covariates = given(poses, covariates)
+            if not said and (text := conditions_text(covariates)) and geometry.leg_model.covariates:
+                said.append(text)
+            inputs = geometry_inputs(geometry, covariates, poses, args.poses)
             lengths = inverse_kinematics(geometry, poses)
             feasible = is_feasible(geometry, poses, margin=1e-6)
             if not feasible.all():
                 rows = np.flatnonzero(~feasible)
                 outside += rows.size
                 bad.extend(ids[k] for k in rows[: max(0, 21 - len(bad))])
-            readings = leg_readings(geometry, lengths)
+            readings = leg_readings(geometry, lengths, inputs)
             part = stroke_excess(geometry, readings, ids=ids)
             beyond = part if beyond is None or part is None else beyond.merge(part)
             more = covariates.to_columns().values()
@@ -82,7 +92,8 @@ def cmd_ik(args: argparse.Namespace) -> None:
         warn(f"hexcal: warning: {outside} pose(s) outside the leg length limits: {', '.join(bad)}{more}")
     _warn_beyond_stroke(beyond, "pose(s)")
     if args.out != "-":
-        print(f"wrote leg lengths of {rows} pose(s) to {args.out}")
+        at = f" ({geometry.leg_model.name} legs: {said[0]} in the first rows)" if said else ""
+        print(f"wrote leg lengths of {rows} pose(s) to {args.out}{at}")
 
 
 def _warn_beyond_stroke(beyond: Any, what: str) -> None:
@@ -100,14 +111,18 @@ def cmd_fk(args: argparse.Namespace) -> None:
 
     from hexcal.core import (
         forward_kinematics,
+        geometry_inputs,
         leg_lengths,
         leg_limit_violations,
         pose_jacobian_from_arrays,
         stroke_excess,
     )
+    from hexcal.instruments import conditions_text, with_conditions
     from hexcal.io import iter_legs, iter_poses, write_table_blocks
 
     geometry = load_geometry(args.geometry, args.euler)
+    model = geometry.leg_model
+    said: list[str] = []
     if not args.guess and geometry.home_pose is None:
         raise CommandError("the geometry has no home_pose: give starting poses with --guess")
     guesses = iter_poses(args.guess, geometry.euler) if args.guess else None
@@ -119,7 +134,11 @@ def cmd_fk(args: argparse.Namespace) -> None:
     stats = {"rows": 0, "residual": 0.0, "iterations": 0}
     read = iter_legs(args.legs, **table_reading(args))
     first = [next(read)]  # its covariate columns are the file's
-    extra = tuple(first[0].covariates.to_columns())
+    extra = tuple(
+        with_conditions(
+            first[0].covariates, len(first[0].ids), args.temperature, args.payload, args.legs
+        ).to_columns()
+    )
     beyond = None
 
     def blocks() -> Any:
@@ -127,13 +146,21 @@ def cmd_fk(args: argparse.Namespace) -> None:
         pending = np.empty((0, 6))
         warned = False
         for legs in _first_then(first, read):
+            legs.covariates = with_conditions(
+                legs.covariates, len(legs.ids), args.temperature, args.payload, args.legs
+            )
+            if not said and (text := conditions_text(legs.covariates)) and model.covariates:
+                said.append(text)
+            inputs = None
+            if legs.readings is not None and model.covariates and not model.inputs_need_poses:
+                inputs = geometry_inputs(geometry, legs.covariates, None, args.legs)
             if legs.readings is not None:  # the controller's readings, through l0 and the gains
                 if legs.has_lengths and not warned:  # the lengths stay unconverted
                     warn(
                         f"hexcal: {args.legs} has both l and dl columns: using dl (the controller's readings)"
                     )
                     warned = True
-                lengths = leg_lengths(geometry, legs.readings)
+                lengths = leg_lengths(geometry, legs.readings, inputs)
                 part = stroke_excess(geometry, legs.readings, ids=legs.ids)
                 beyond = part if beyond is None or part is None else beyond.merge(part)
             else:
@@ -167,6 +194,11 @@ def cmd_fk(args: argparse.Namespace) -> None:
                     pending = np.concatenate([pending, more[0]])
                 guess, pending = pending[: len(lengths)], pending[len(lengths) :]
             result = forward_kinematics(geometry, lengths, guess=guess, tol=args.tol)
+            if legs.readings is not None and model.inputs_need_poses and result.all_converged:
+                # axial forces at the poses found without them, then the poses with them (first order)
+                inputs = geometry_inputs(geometry, legs.covariates, result.poses, args.legs)
+                lengths = leg_lengths(geometry, legs.readings, inputs)
+                result = forward_kinematics(geometry, lengths, guess=result.poses, tol=args.tol)
             if not result.all_converged:
                 bad = [legs.ids[k] for k in np.flatnonzero(~result.converged)]
                 raise CommandError(
@@ -184,9 +216,10 @@ def cmd_fk(args: argparse.Namespace) -> None:
     write_table_blocks(args.out, ("x", "y", "z", "a", "b", "c", *extra), blocks())
     _warn_beyond_stroke(beyond, "row(s) of readings")
     if args.out != "-":
+        at = f"; {model.name} legs: {said[0]} in the first rows" if said else ""
         print(
             f"wrote {stats['rows']} pose(s) to {args.out} (max leg residual "
-            f"{stats['residual']:.1e} mm, at most {stats['iterations']} iterations)"
+            f"{stats['residual']:.1e} mm, at most {stats['iterations']} iterations{at})"
         )
 
 
@@ -202,6 +235,7 @@ def register(sub: Any) -> None:
     p.add_argument("--poses", required=True, help="pose CSV file")
     p.add_argument("--out", required=True, help="leg CSV file to write (l1..l6, dl1..dl6; - for stdout)")
     p.add_argument("--euler", help=EULER_HELP)
+    condition_options(p)
     table_options(p, "--poses")
     p.set_defaults(func=cmd_ik, inputs=("geometry", "poses"), outputs=("out",), folders=())
 
@@ -217,6 +251,7 @@ def register(sub: Any) -> None:
     p.add_argument("--guess", help="pose CSV file of starting poses (default: the home pose)")
     p.add_argument("--euler", help=EULER_HELP)
     p.add_argument("--tol", type=float, default=1e-9, help="leg length tolerance, mm")
+    condition_options(p)
     table_options(p, "--legs", "; --guess is read with hexcal's names")
     p.set_defaults(func=cmd_fk, inputs=("geometry", "legs", "guess"), outputs=("out",), folders=())
     for name in ("preset", "ik", "fk"):

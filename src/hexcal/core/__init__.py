@@ -17,6 +17,9 @@ Public names
   kinematics (leg lengths of poses and back, readings and lengths through the leg model).
 - ``LegModel``, ``LinearLegs``, ``StrokeLegs``, ``LEG_MODELS``, ``register_leg_model``,
   ``leg_model_from_dict``: leg models (docs/leg-models.md).
+- ``CovariateLegs``, ``axial_forces``, ``geometry_inputs``: leg models with covariates (the
+  legs' temperatures, the payload's weight), the leg forces of a weight at a pose, and each
+  pose's leg-model inputs for a geometry.
 - ``stroke_excess``, ``StrokeExcess``, ``STROKE_MARGIN``: how far readings go beyond each leg's
   calibrated stroke (where a stroke model holds its curve), and the margin commands warn beyond.
 - ``workspace_box``, ``workspace_corners``, ``box_corners``, ``random_poses``,
@@ -46,6 +49,9 @@ _NAMES = {
     "LegModel": "legs",
     "LinearLegs": "legs",
     "StrokeLegs": "stroke_legs",
+    "CovariateLegs": "covariate_legs",
+    "axial_forces": "covariate_legs",
+    "geometry_inputs": "covariate_legs",
     "STROKE_MARGIN": "stroke_legs",
     "StrokeExcess": "stroke_legs",
     "stroke_excess": "stroke_legs",
@@ -133,6 +139,7 @@ __all__ = [
     "STROKE_MARGIN",
     "Compensation",
     "CorrectedPath",
+    "CovariateLegs",
     "ForwardResult",
     "Geometry",
     "LegModel",
@@ -143,12 +150,14 @@ __all__ = [
     "PathError",
     "StrokeExcess",
     "StrokeLegs",
+    "axial_forces",
     "box_corners",
     "check_euler",
     "compensate",
     "correct_path",
     "correct_poses",
     "forward_kinematics",
+    "geometry_inputs",
     "inverse_kinematics",
     "is_feasible",
     "leg_lengths",

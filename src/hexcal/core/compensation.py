@@ -8,11 +8,13 @@ rest of :mod:`hexcal.core`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.conventions import as_poses
+from hexcal.core.covariate_legs import geometry_inputs
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
 from hexcal.core.workspace import leg_limit_violations
@@ -53,6 +55,7 @@ def compensate(
     targets: ArrayLike,
     ids: tuple[str, ...] | None = None,
     nominal: Geometry | None = None,
+    covariates: Any = None,
 ) -> Compensation:
     """Leg readings that bring the machine described by ``geometry`` to each target.
 
@@ -66,6 +69,11 @@ def compensate(
         The controller's geometry: also compute the corrected target poses ``p'`` with
         ``IK_nominal(p') = l0_nominal + g_nominal dl`` (forward kinematics of the nominal
         geometry started at the target).
+    covariates : Covariates, optional
+        The conditions each target is to be reached under (the legs' temperatures, the
+        payload: :class:`hexcal.instruments.Covariates`), for a leg model that reads them
+        (:mod:`hexcal.core.covariate_legs`); the axial forces at the targets. A leg model that
+        needs one the covariates lack is refused in one line.
 
     Raises
     ------
@@ -75,7 +83,7 @@ def compensate(
     targets = np.array(as_poses(targets, "targets"), dtype=float).reshape(-1, 6)
     ids = tuple(ids) if ids is not None else tuple(str(k + 1) for k in range(len(targets)))
     lengths = inverse_kinematics(geometry, targets)
-    readings = leg_readings(geometry, lengths)
+    readings = leg_readings(geometry, lengths, geometry_inputs(geometry, covariates, targets, "the targets"))
     short, long = leg_limit_violations(geometry, lengths, margin=1e-9)
     feasible = ~(short | long)
     corrected = None

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.core.conventions import DEFAULT_EULER, POSE_NAMES
+from hexcal.core.covariate_legs import CovariateLegs  # noqa: F401  (registers its kinds by name)
 from hexcal.core.legs import leg_model_from_dict
 from hexcal.core.stroke_legs import StrokeLegs  # noqa: F401  (registers the stroke model by name)
 from hexcal.errors import GeometryError

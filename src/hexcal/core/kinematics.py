@@ -12,6 +12,7 @@ poses: ``base_joints`` and ``platform_joints`` have shape ``(..., 6, 3)``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -24,6 +25,7 @@ from hexcal.core.conventions import (
     rotation_matrices,
     rotation_matrices_t,
 )
+from hexcal.core.covariate_legs import geometry_inputs
 from hexcal.core.geometry import Geometry
 
 #: Default convergence tolerance of the forward kinematics, mm of leg length.
@@ -131,16 +133,23 @@ def inverse_kinematics(geometry: Geometry, poses: ArrayLike) -> NDArray[np.float
     return out.reshape(poses.shape)
 
 
-def leg_readings(geometry: Geometry, lengths: ArrayLike) -> NDArray[np.float64]:
+def leg_readings(
+    geometry: Geometry, lengths: ArrayLike, inputs: ArrayLike | None = None
+) -> NDArray[np.float64]:
     """Leg readings of absolute leg lengths through the geometry's leg model (``(l - l0) / g``
-    for linear legs), shape ``(..., 6)``."""
-    return geometry.leg_model.readings(geometry.leg_block(), lengths)
+    for linear legs), shape ``(..., 6)``; ``inputs`` ``(..., 6, K)`` are each pose's for a leg
+    model with covariates (:meth:`hexcal.core.legs.LegModel.leg_inputs`)."""
+    if inputs is None:
+        return geometry.leg_model.readings(geometry.leg_block(), lengths)
+    return geometry.leg_model.readings(geometry.leg_block(), lengths, inputs)
 
 
-def leg_lengths(geometry: Geometry, readings: ArrayLike) -> NDArray[np.float64]:
+def leg_lengths(
+    geometry: Geometry, readings: ArrayLike, inputs: ArrayLike | None = None
+) -> NDArray[np.float64]:
     """Absolute leg lengths of leg readings through the geometry's leg model (``l0 + g dl``
-    for linear legs), shape ``(..., 6)``."""
-    return geometry.leg_model.lengths(geometry.leg_block(), readings)
+    for linear legs), shape ``(..., 6)``; ``inputs`` as in :func:`leg_readings`."""
+    return geometry.leg_model.lengths(geometry.leg_block(), readings, inputs)
 
 
 def pose_jacobian_from_arrays(
@@ -381,6 +390,32 @@ def forward_kinematics(
         tol=tol,
         max_iter=max_iter,
     )
+
+
+def forward_with_covariates(
+    geometry: Any,
+    readings: ArrayLike,
+    covariates: Any,
+    guess: ArrayLike,
+    where: str = "the data",
+    sensor: ArrayLike | None = None,
+) -> tuple[Any, NDArray[np.float64] | None]:
+    """The poses of ``readings`` ``(m, 6)`` on ``geometry`` under each pose's ``covariates``
+    (forward kinematics from ``guess``; ``sensor`` mm added to the lengths), and the inputs used.
+
+    The axial forces of a compliance term depend on the pose: they are taken at ``guess``, then
+    once more at the poses found (the first order of the module: a second pass changes the
+    poses by parts in 10⁵ of the deflection). Returns the
+    :class:`~hexcal.core.kinematics.ForwardResult` and the inputs ``(m, 6, K)`` (None for a
+    model without covariates)."""
+    readings = np.asarray(readings, dtype=float)
+    extra = 0.0 if sensor is None else np.asarray(sensor, dtype=float)
+    inputs = geometry_inputs(geometry, covariates, guess, where)
+    fk = forward_kinematics(geometry, leg_lengths(geometry, readings, inputs) + extra, guess=guess)
+    if inputs is not None and geometry.leg_model.inputs_need_poses and fk.all_converged:
+        inputs = geometry_inputs(geometry, covariates, fk.poses, where)
+        fk = forward_kinematics(geometry, leg_lengths(geometry, readings, inputs) + extra, guess=fk.poses)
+    return fk, inputs
 
 
 def pose_errors(

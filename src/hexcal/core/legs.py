@@ -19,6 +19,14 @@ per-leg functions work on ``θ (..., 6, per_leg)`` broadcast against readings ``
 A new leg model is one subclass (its terms, :meth:`~LegModel.length` and
 :meth:`~LegModel.length_jacobian`) plus one line in :data:`LEG_MODELS`.
 
+**Per-pose inputs.** A model may also read the conditions of each pose (the legs'
+temperatures, the payload): it names the covariates it needs in :attr:`LegModel.covariates`
+and its per-leg input columns in :attr:`LegModel.inputs`, and receives them as one array
+``inputs (..., m, 6, K)`` beside the readings ``(..., m, 6)`` (built once per data set by
+:meth:`LegModel.leg_inputs`; :mod:`hexcal.core.covariate_legs`). Every block function takes
+``inputs=None``; a model without inputs never sees the argument, so models written for
+readings alone keep working unchanged.
+
 Imports numpy and :mod:`hexcal.errors`.
 
 >>> legs = LinearLegs()
@@ -57,6 +65,13 @@ class LegModel:
     name: ClassVar[str] = ""
     #: Per-leg terms beyond ``l0`` and ``g`` (their parameter names are ``{term}_{leg}``).
     terms: tuple[str, ...] = ()
+    #: The covariates the model reads (names of :class:`hexcal.instruments.Covariates`
+    #: quantities: ``temperatures``, ``payload_kg``, ...); none for a model of readings alone.
+    covariates: tuple[str, ...] = ()
+    #: Its per-leg input columns (the last axis of ``inputs``), none without covariates.
+    inputs: tuple[str, ...] = ()
+    #: Whether its inputs depend on the pose (an axial force does, a temperature does not).
+    inputs_need_poses: bool = False
 
     # -- the per-leg functions --------------------------------------------------------
     def length(self, theta: NDArray[np.float64], reading: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -109,6 +124,19 @@ class LegModel:
         """The leg (0-based) of each block parameter, shape ``(size,)``."""
         return np.tile(np.arange(N_LEGS), self.per_leg)
 
+    def own_groups(self) -> tuple[str, ...]:
+        """The groups of the model's own terms (``--fit`` names them; none for linear legs)."""
+        return tuple(g for g in self.groups() if g not in ("l0", "gains"))
+
+    def leg_inputs(
+        self, covariates: Any, poses: ArrayLike | None = None, geometry: Any = None, where: str = "the data"
+    ) -> NDArray[np.float64] | None:
+        """Each pose's per-leg inputs ``(m, 6, K)`` of ``covariates`` (a
+        :class:`hexcal.instruments.Covariates`; at ``poses`` ``(m, 6)`` on ``geometry`` when
+        :attr:`inputs_need_poses`), or None for a model without covariates. A missing
+        covariate is one line naming ``where`` and the quantity."""
+        return None
+
     def stroke_range(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
         """Each leg's reading range ``(low, high)`` over which the model's own terms are
         defined (a curve of the stroke), or ``None`` when they hold everywhere (linear legs):
@@ -132,24 +160,50 @@ class LegModel:
         """Each leg's parameters ``(..., 6, per_leg)`` of blocks ``(..., size)``."""
         return np.asarray(block, dtype=float)[..., self.index()]
 
-    def lengths(self, block: ArrayLike, readings: ArrayLike) -> NDArray[np.float64]:
-        """Leg lengths ``(..., 6)`` of readings ``(..., 6)`` for blocks ``(..., size)``
-        (batch shapes broadcast)."""
-        return self.length(self.thetas(block), np.asarray(readings, dtype=float))
+    def leg_length(
+        self, theta: NDArray[np.float64], reading: NDArray[np.float64], inputs: NDArray | None = None
+    ) -> NDArray[np.float64]:
+        """:meth:`length` with the per-pose ``inputs`` ``(..., 6, K)`` when there are any (a model
+        of readings alone is called as it was written, without them)."""
+        return self.length(theta, reading) if inputs is None else self.length(theta, reading, inputs)
 
-    def jacobian(self, block: ArrayLike, readings: ArrayLike) -> NDArray[np.float64]:
+    def leg_length_jacobian(
+        self, theta: NDArray[np.float64], reading: NDArray[np.float64], inputs: NDArray | None = None
+    ) -> NDArray[np.float64]:
+        """:meth:`length_jacobian` with the per-pose ``inputs`` when there are any."""
+        if inputs is None:
+            return self.length_jacobian(theta, reading)
+        return self.length_jacobian(theta, reading, inputs)
+
+    def lengths(
+        self, block: ArrayLike, readings: ArrayLike, inputs: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        """Leg lengths ``(..., 6)`` of readings ``(..., 6)`` for blocks ``(..., size)``
+        (batch shapes broadcast; ``inputs`` ``(..., 6, K)``: each pose's, for a model with
+        covariates)."""
+        inputs = None if inputs is None else np.asarray(inputs, dtype=float)
+        return self.leg_length(self.thetas(block), np.asarray(readings, dtype=float), inputs)
+
+    def jacobian(
+        self, block: ArrayLike, readings: ArrayLike, inputs: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
         """``d lengths / d block``, shape ``(..., 6, size)``: leg ``i`` depends only on its own
         parameters (the other columns are zero)."""
         readings = np.asarray(readings, dtype=float)
-        local = self.length_jacobian(self.thetas(block), readings)  # (..., 6, per_leg)
+        inputs = None if inputs is None else np.asarray(inputs, dtype=float)
+        local = self.leg_length_jacobian(self.thetas(block), readings, inputs)  # (..., 6, per_leg)
         out = np.zeros((*local.shape[:-1], self.size))
         rows = np.arange(N_LEGS)[:, None]
         out[..., rows, self.index()] = local
         return out
 
-    def readings(self, block: ArrayLike, lengths: ArrayLike) -> NDArray[np.float64]:
+    def readings(
+        self, block: ArrayLike, lengths: ArrayLike, inputs: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
         """Readings ``(..., 6)`` that give ``lengths`` (the inverse; Newton's method unless a
-        model overrides it)."""
+        model overrides it; ``inputs`` as in :meth:`lengths`)."""
+        if inputs is not None:
+            raise NotImplementedError(f"the {self.name} leg model has no inverse with per-pose inputs")
         theta = self.thetas(block)
         lengths = np.asarray(lengths, dtype=float)
         reading = (lengths - theta[..., 0]) / theta[..., 1]
@@ -202,7 +256,9 @@ class LinearLegs(LegModel):
     def slope(self, theta: NDArray[np.float64], reading: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.broadcast_to(theta[..., 1], np.broadcast_shapes(theta.shape[:-1], np.shape(reading)))
 
-    def readings(self, block: ArrayLike, lengths: ArrayLike) -> NDArray[np.float64]:
+    def readings(
+        self, block: ArrayLike, lengths: ArrayLike, inputs: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
         theta = self.thetas(block)
         return (np.asarray(lengths, dtype=float) - theta[..., 0]) / theta[..., 1]
 
@@ -211,9 +267,11 @@ class LinearLegs(LegModel):
 LEG_MODELS: dict[str, type[LegModel]] = {LinearLegs.name: LinearLegs}
 
 
-def register_leg_model(model: type[LegModel]) -> type[LegModel]:
-    """Add a leg model class to :data:`LEG_MODELS` (replacing one of the same name)."""
-    LEG_MODELS[model.name] = model
+def register_leg_model(model: type[LegModel], names: tuple[str, ...] = ()) -> type[LegModel]:
+    """Add a leg model class to :data:`LEG_MODELS` (replacing one of the same name), under its
+    ``name`` or, for a class that makes several models (a combination of terms), ``names``."""
+    for name in names or (model.name,):
+        LEG_MODELS[name] = model
     return model
 
 

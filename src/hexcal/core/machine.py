@@ -82,6 +82,7 @@ def leg_equations(
     variant: str = "length",
     jacobian: bool = True,
     legs_first: bool = False,
+    inputs: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
     """Leg residuals of every pose and leg and their Jacobian in each leg's own parameters.
 
@@ -99,6 +100,9 @@ def leg_equations(
     legs_first : bool
         The leg axis before the pose axis in the results (the layout of the per-leg normal
         equations of stacked solvers).
+    inputs : ndarray, shape (..., m, 6, K), optional
+        Each pose's per-leg inputs of a leg model with covariates (None: the model's
+        reference conditions).
 
     Returns
     -------
@@ -117,7 +121,7 @@ def leg_equations(
     (pose selection breaks near-ties of mirror-image poses by them).
     """
     theta = table[..., None, :, 6:]  # the leg model's per-leg functions take the leg axis last
-    lengths = model.length(theta, readings)  # (..., m, 6)
+    lengths = model.leg_length(theta, readings, inputs)  # (..., m, 6)
     if legs_first:
         # v[..., i, j] = R_j s_i + o_j - u_i, by components
         p, r_ = table[..., :, None, :], rotations[..., None, :, :, :]  # (..., 6, 1, L), (..., 1, m, 3, 3)
@@ -142,7 +146,7 @@ def leg_equations(
         r = length - lengths
     if not jacobian:
         return r, None
-    dmodel = model.length_jacobian(theta, readings)  # (..., m, 6, q)
+    dmodel = model.leg_length_jacobian(theta, readings, inputs)  # (..., m, 6, q)
     jac = np.empty((*r.shape, table.shape[-1]))
     if variant == "paper":
         jac[..., 6:] = (-2.0 * lengths)[..., None] * (np.swapaxes(dmodel, -3, -2) if legs_first else dmodel)
@@ -170,10 +174,11 @@ def leg_residuals(
     positions: NDArray[np.float64],
     readings: NDArray[np.float64],
     variant: str = "length",
+    inputs: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """Leg residuals of every pose and leg, shape ``(..., m, 6)`` (mm, or mm² for ``"paper"``)."""
     return leg_equations(
-        leg_table(joints, legs, model), model, rotations, positions, readings, variant, False
+        leg_table(joints, legs, model), model, rotations, positions, readings, variant, False, inputs=inputs
     )[0]
 
 
@@ -185,11 +190,12 @@ def leg_parameter_jacobian(
     positions: NDArray[np.float64],
     readings: NDArray[np.float64],
     variant: str = "length",
+    inputs: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """Jacobian of :func:`leg_residuals` with respect to the joints and the leg block,
     ``(..., m, 6, 36 + p)`` (:func:`leg_equations`' columns placed in the machine's)."""
     table = leg_table(joints, legs, model)
-    _, local = leg_equations(table, model, rotations, positions, readings, variant)
+    _, local = leg_equations(table, model, rotations, positions, readings, variant, inputs=inputs)
     return spread_legs(local, model)
 
 

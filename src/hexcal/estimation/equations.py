@@ -61,6 +61,8 @@ class Observations:
     whitener : ndarray, shape (k, k)
     constant : bool
         The instrument rows of the pose Jacobian are the whitener itself (:meth:`of`).
+    inputs : ndarray, shape (..., m, 6, K), or None
+        Each pose's leg-model inputs (a leg model with covariates).
     """
 
     instrument: MeasurementModel
@@ -72,13 +74,16 @@ class Observations:
     sigma: float
     whitener: NDArray[np.float64]
     constant: bool = False
+    inputs: NDArray[np.float64] | None = None
 
     @classmethod
-    def of(cls, instrument, euler, model, readings, observed, present, sigma, whitener) -> Observations:
+    def of(
+        cls, instrument, euler, model, readings, observed, present, sigma, whitener, inputs=None
+    ) -> Observations:
         """The inputs, ``constant`` where the instrument rows of the pose Jacobian are the whitener
         itself (the full pose, every value present)."""
         constant = bool(instrument.constant_pose_jacobian and np.all(present))
-        return cls(instrument, euler, model, readings, observed, present, sigma, whitener, constant)
+        return cls(instrument, euler, model, readings, observed, present, sigma, whitener, constant, inputs)
 
     @property
     def complete(self) -> bool:
@@ -96,6 +101,7 @@ class Observations:
             self.sigma,
             self.whitener,
             self.constant,
+            None if self.inputs is None else self.inputs[idx],
         )
 
 
@@ -171,7 +177,7 @@ class Equations:
 def model_lengths(session: Observations, legs: NDArray[np.float64]) -> NDArray[np.float64]:
     """The lengths ``(..., m, 6)`` the leg model gives the session's readings for leg blocks
     ``legs`` ``(..., p)``."""
-    return session.model.lengths(legs[..., None, :], session.readings)
+    return session.model.lengths(legs[..., None, :], session.readings, session.inputs)
 
 
 def observation_equations(
@@ -219,7 +225,9 @@ def parameter_rows(
     and the whitened instrument rows in the instrument's quantities ``instrument_columns``
     ``(k, m, K, q)`` (parameter units; None when none is asked)."""
     rot, pos = pose_frames(poses, session.euler)
-    _, legs = leg_equations(table, session.model, rot, pos, session.readings, legs_first=True)
+    _, legs = leg_equations(
+        table, session.model, rot, pos, session.readings, legs_first=True, inputs=session.inputs
+    )
     legs = legs * (leg_scales / session.sigma)[:, None, :]
     if instrument_columns is None or len(instrument_columns) == 0:
         return legs, None

@@ -45,13 +45,22 @@ from hexcal.estimation.stacked import Stack
 
 def measured_frames(stack: Stack) -> tuple[NDArray, NDArray, NDArray]:
     """Rotations ``(T, m, 3, 3)``, positions ``(T, m, 3)`` and readings ``(T, m, 6)`` of the
-    measured platform poses of every session (instruments that determine the pose)."""
+    measured platform poses of every session (instruments that determine the pose).
+    Each pose's leg-model inputs are :func:`stack_inputs`."""
     poses = np.concatenate(
         [p.instrument.platform_from(stack.full0[:, p.block], p.observed, stack.euler) for p in stack.parts],
         axis=1,
     )
     rot, pos = pose_frames(poses, stack.euler)
     return rot, pos, np.concatenate([p.readings for p in stack.parts], axis=1)
+
+
+def stack_inputs(stack: Stack) -> NDArray | None:
+    """Each pose's leg-model inputs ``(T, m, 6, K)`` of every session, or None (a leg model
+    without covariates)."""
+    if stack.parts[0].inputs is None:
+        return None
+    return np.concatenate([p.inputs for p in stack.parts], axis=1)
 
 
 # -- the leg-separable problems ---------------------------------------------------------------
@@ -102,8 +111,9 @@ class LegProblems:
         Their solver scales.
     """
 
-    def __init__(self, table0, rot, pos, readings, free, scales, variant, model) -> None:
+    def __init__(self, table0, rot, pos, readings, free, scales, variant, model, inputs=None) -> None:
         self.rot, self.pos, self.readings, self.variant, self.model = rot, pos, readings, variant, model
+        self.inputs = inputs
         self.width = table0.shape[-1]
         self.free = free
         self.col = (scales * free).reshape(1, 6, -1)  # solver units; 0 for fixed parameters
@@ -128,12 +138,13 @@ class LegProblems:
             self.readings[trials],
             self.variant,
             legs_first=True,
+            inputs=None if self.inputs is None else self.inputs[trials],
         )
         return r, jac * self.col[:, :, None, :]
 
     def floor(self) -> NDArray[np.float64]:
         """Rounding level of each leg's cost ``(6 T,)``."""
-        size = np.abs(self.model.length(self.p0[:, None, :, 6:], self.readings))  # (T, m, 6)
+        size = np.abs(self.model.leg_length(self.p0[:, None, :, 6:], self.readings, self.inputs))  # (T, m, 6)
         size = np.swapaxes(size**2 if self.variant == "paper" else size, 1, 2)
         return rounding_floor(np.abs(self.r) + size.reshape(self.r.shape), (1,))
 
@@ -174,7 +185,15 @@ def _leg_problems(stack: Stack, variant: str) -> tuple[LegProblems, NDArray[np.i
     free = stack.mask[cols]
     rot, pos, readings = measured_frames(stack)
     model = LegProblems(
-        stack.full0[:, cols], rot, pos, readings, free, stack.scales[cols], variant, stack.start.leg_model
+        stack.full0[:, cols],
+        rot,
+        pos,
+        readings,
+        free,
+        stack.scales[cols],
+        variant,
+        stack.start.leg_model,
+        stack_inputs(stack),
     )
     return model, cols, free
 
@@ -232,8 +251,10 @@ class WhitenedLegs:
     legs' block structure: ``JᵀJ`` has the blocks ``Σ_j A_jiᵀ (WᵀW)_j,ik A_jk`` of legs ``i, k``.
     """
 
-    def __init__(self, stack: Stack, full: NDArray, weights: NDArray, rot, pos, readings) -> None:
-        self.stack, self.weights = stack, weights
+    def __init__(
+        self, stack: Stack, full: NDArray, weights: NDArray, rot, pos, readings, inputs=None
+    ) -> None:
+        self.stack, self.weights, self.inputs = stack, weights, inputs
         self.gram = np.matmul(np.swapaxes(weights, -1, -2), weights)  # WᵀW (T, m, 6, 6)
         self.rot, self.pos, self.readings = rot, pos, readings
         self.leg_cols = stack.leg_columns()  # (6, L)
@@ -256,6 +277,7 @@ class WhitenedLegs:
             self.rot[trials],
             self.pos[trials],
             self.readings[trials],
+            inputs=None if self.inputs is None else self.inputs[trials],
         )
         width = local.shape[-1]
         return np.einsum("tmij,tmj->tmi", self.weights[trials], r), local * self.col.reshape(6, width)
@@ -277,7 +299,7 @@ class WhitenedLegs:
     def floor(self) -> NDArray[np.float64]:
         st = self.stack
         table = st.full0[:, self.leg_cols]
-        size = np.abs(st.start.leg_model.length(table[:, None, :, 6:], self.readings))
+        size = np.abs(st.start.leg_model.leg_length(table[:, None, :, 6:], self.readings, self.inputs))
         return rounding_floor(np.abs(self.r) + np.einsum("tmij,tmj->tmi", np.abs(self.weights), size), (1, 2))
 
     def deviation(self, idx: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -321,7 +343,7 @@ def solve_whitened(
     """Least squares of the whitened leg residuals of every trial from ``full`` ``(T, N)``:
     ``(full, status, iterations, cost)``."""
     rot, pos, readings = measured_frames(stack)
-    model = WhitenedLegs(stack, full, weights, rot, pos, readings)
+    model = WhitenedLegs(stack, full, weights, rot, pos, readings, stack_inputs(stack))
     alive = np.ones(len(stack), dtype=bool) if alive is None else alive
     status, iterations = minimise(model, alive & np.isfinite(model.cost), model.floor(), xtol, max_iter)
     return model.full, status, iterations, model.cost

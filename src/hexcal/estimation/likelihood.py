@@ -237,7 +237,7 @@ class MaximumLikelihood:
         st = self.stack
         for solver, point in zip(self.solvers, self.points, strict=True):
             obs = solver.obs
-            model = st.start.leg_model.lengths(self.full[:, None, st.legs], obs.readings)
+            model = st.start.leg_model.lengths(self.full[:, None, st.legs], obs.readings, obs.inputs)
             observed = np.where(obs.present, obs.observed, 0.0) @ obs.whitener.T
             out = out + rounding_floor(np.abs(point.eqs.e_leg) + np.abs(model) / obs.sigma, (1, 2))
             out = out + rounding_floor(np.abs(observed), (1, 2))
@@ -453,6 +453,7 @@ class PoseProjection:
             part.present[None],
             self.sigma,
             self.whitener,
+            None if part.inputs is None else part.inputs[None],
         )
         self._solver = PoseSolver(obs, problem.joints, problem.leg_block, part.block)
         self.start = problem.start_poses(part)

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hexcal.core.covariate_legs import geometry_inputs
 from hexcal.core.geometry import Geometry
 from hexcal.core.linalg import null_space, numerical_rank, scaled_svd
 from hexcal.core.machine import (
@@ -64,6 +65,8 @@ class Part:
     readings : ndarray, shape (m, 6)
     observed : ndarray, shape (m, k)
     present : ndarray of bool, shape (m, k)
+    inputs : ndarray, shape (m, 6, K), or None
+        Each pose's leg-model inputs (a leg model with covariates; None otherwise).
     """
 
     session: Session
@@ -73,6 +76,7 @@ class Part:
     readings: NDArray[np.float64]
     observed: NDArray[np.float64]
     present: NDArray[np.bool_]
+    inputs: NDArray[np.float64] | None = None
 
     @property
     def instrument(self) -> MeasurementModel:
@@ -139,6 +143,7 @@ class Problem:
         self.machine = slice(self.joints.start, self.leg_block.stop)
         self.machine_mask = self.mask[self.machine]
         labels = session_labels(self.sessions)
+        self._start_poses: list[NDArray[np.float64] | None] = [None] * len(self.sessions)
         parts, start_row = [], 0
         for k, session in enumerate(self.sessions):
             inst = session.instrument
@@ -147,16 +152,21 @@ class Problem:
             rows = slice(start_row, start_row + len(readings))
             start_row = rows.stop
             block = parameters.span(f"setup.{k}")
-            parts.append(Part(session, labels[k], block, rows, readings, observed, present))
+            part = Part(session, labels[k], block, rows, readings, observed, present)
+            if self.legs.covariates:  # each pose's inputs, once (forces at the start poses)
+                poses = self.start_poses(part, k) if self.legs.inputs_need_poses else None
+                inputs = geometry_inputs(start, inst.covariates(session.data), poses, labels[k])
+                part = Part(session, labels[k], block, rows, readings, observed, present, inputs)
+            parts.append(part)
         self.parts: tuple[Part, ...] = tuple(parts)
         self.readings = np.concatenate([p.readings for p in self.parts])
+        self.inputs = np.concatenate([p.inputs for p in self.parts]) if self.legs.covariates else None
         many = len(self.parts) > 1
         self.ids: tuple[str, ...] = tuple(
             (f"{p.label}:{i}" if many else i) for p in self.parts for i in p.session.ids
         )
         self._frames: tuple[NDArray, NDArray] | None = None
         self._poses: NDArray[np.float64] | None = None
-        self._start_poses: list[NDArray[np.float64] | None] = [None] * len(self.parts)
 
     # -- bookkeeping -------------------------------------------------------------------
     def __len__(self) -> int:
@@ -291,7 +301,7 @@ class Problem:
         """Leg residuals at the measured poses, ``(m, 6)``."""
         rot, pos = self.measured_frames()
         return leg_residuals(
-            full[self.joints], full[self.leg_block], self.legs, rot, pos, self.readings, variant
+            full[self.joints], full[self.leg_block], self.legs, rot, pos, self.readings, variant, self.inputs
         )
 
     def leg_jacobian(
@@ -301,7 +311,7 @@ class Problem:
         units when not ``scaled``); instrument parameters do not enter the legs."""
         rot, pos = self.measured_frames()
         machine = leg_parameter_jacobian(
-            full[self.joints], full[self.leg_block], self.legs, rot, pos, self.readings, variant
+            full[self.joints], full[self.leg_block], self.legs, rot, pos, self.readings, variant, self.inputs
         ).reshape(-1, self.machine.stop - self.machine.start)
         jac = np.zeros((machine.shape[0], len(self.mask)))
         jac[:, self.machine] = machine
@@ -335,9 +345,10 @@ class Problem:
         return wfun, wjac
 
     # -- errors in variables -----------------------------------------------------------
-    def start_poses(self, part: Part) -> NDArray[np.float64]:
-        """The instrument's initial estimates of a session's true poses ``(m, 6)`` (cached)."""
-        k = self.parts.index(part)
+    def start_poses(self, part: Part, k: int | None = None) -> NDArray[np.float64]:
+        """The instrument's initial estimates of a session's true poses ``(m, 6)`` (cached;
+        ``k`` the session's position, while the parts are being made)."""
+        k = self.parts.index(part) if k is None else k
         if self._start_poses[k] is None:
             self._start_poses[k] = part.instrument.start_poses(self.start, self.full0[part.block], part.data)
         return self._start_poses[k]
@@ -353,6 +364,7 @@ class Problem:
             part.present,
             leg_sigma,
             instrument_whitener,
+            part.inputs,
         )
 
     def observation_equations(
@@ -396,7 +408,7 @@ class Problem:
         parameters, ``(m, 6, n_free)`` in solver units (instrument parameters do not enter)."""
         rot, pos = pose_frames(poses, self.euler)
         table = leg_table(full[self.joints], full[self.leg_block], self.legs)
-        _, local = leg_equations(table, self.legs, rot, pos, part.readings, variant)
+        _, local = leg_equations(table, self.legs, rot, pos, part.readings, variant, inputs=part.inputs)
         return self.spread_leg_rows(local)
 
     def spread_leg_rows(self, local: NDArray[np.float64]) -> NDArray[np.float64]:

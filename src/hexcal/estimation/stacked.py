@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hexcal.core.covariate_legs import geometry_inputs
 from hexcal.core.geometry import Geometry
 from hexcal.core.machine import leg_columns
 from hexcal.core.noise import NoiseModel
@@ -51,6 +52,8 @@ class StackPart:
     present : ndarray of bool, shape (T, m, k)
     start_poses : ndarray, shape (T, m, 6)
         Initial estimates of the true poses.
+    inputs : ndarray, shape (T, m, 6, K), or None
+        Each pose's leg-model inputs (a leg model with covariates).
     """
 
     instrument: MeasurementModel
@@ -59,6 +62,7 @@ class StackPart:
     observed: NDArray[np.float64]
     present: NDArray[np.bool_]
     start_poses: NDArray[np.float64]
+    inputs: NDArray[np.float64] | None = None
 
     def rows(self, rows: Any) -> StackPart:
         """The trials ``rows`` (copies)."""
@@ -68,6 +72,7 @@ class StackPart:
             observed=np.array(self.observed[rows]),
             present=np.array(self.present[rows]),
             start_poses=np.array(self.start_poses[rows]),
+            inputs=None if self.inputs is None else np.array(self.inputs[rows]),
         )
 
     def observations(self, start: Geometry, noise: NoiseModel) -> Observations:
@@ -82,6 +87,7 @@ class StackPart:
             self.present,
             sigma,
             whitener,
+            self.inputs,
         )
 
 
@@ -187,7 +193,15 @@ class Stack:
         ``poses`` (one array per session) or the instrument's."""
         poses = [problem.start_poses(p) for p in problem.parts] if poses is None else poses
         parts = tuple(
-            StackPart(p.instrument, p.block, p.readings[None], p.observed[None], p.present[None], own[None])
+            StackPart(
+                p.instrument,
+                p.block,
+                p.readings[None],
+                p.observed[None],
+                p.present[None],
+                own[None],
+                None if p.inputs is None else p.inputs[None],
+            )
             for p, own in zip(problem.parts, poses, strict=True)
         )
         return cls(problem.start, problem.parameters, problem.full0[None], parts, None, problem)
@@ -217,15 +231,24 @@ class Stack:
         readings, observed = np.zeros((t, m, 6)), np.zeros((t, m, k))
         present = np.zeros((t, m, k), dtype=bool)
         full0 = np.tile(np.asarray(params.values), (t, 1))
+        model = start.leg_model
+        inputs = np.zeros((t, m, 6, len(model.inputs))) if model.covariates else None
         for i, session in enumerate(sessions):  # gathering the data, not solving
             inst = session.instrument
             values, seen = inst.observed(session.data)
             n = len(values)
             readings[i, :n], observed[i, :n], present[i, :n] = inst.readings(session.data), values, seen
             full0[i, block] = inst.parameters().values
+            if inputs is not None:
+                at = (
+                    inst.start_poses(start, full0[i, block], session.data)
+                    if model.inputs_need_poses
+                    else None
+                )
+                inputs[i, :n] = geometry_inputs(start, inst.covariates(session.data), at, f"trial {i + 1}")
         instrument = sessions[0].instrument
-        poses = start_poses(start, instrument, full0, params, block, readings, observed)
-        part = StackPart(instrument, block, readings, observed, present, poses)
+        poses = start_poses(start, instrument, full0, params, block, readings, observed, inputs)
+        part = StackPart(instrument, block, readings, observed, present, poses, inputs)
         return cls(start, params, full0, (part,), tuple((s,) for s in sessions))
 
 
@@ -237,6 +260,7 @@ def start_poses(
     block: slice,
     readings: NDArray[np.float64],
     observed: NDArray[np.float64],
+    inputs: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """Each trial's start poses ``(T, m, 6)``: the measured platform pose where the instrument
     gives it, else the forward kinematics of the readings on each trial's start machine (what
@@ -248,7 +272,7 @@ def start_poses(
     joints = full0[:, parameters.span("joints")]
     t = len(full0)
     u, s = joints[:, None, :18].reshape(t, 1, 6, 3), joints[:, None, 18:36].reshape(t, 1, 6, 3)
-    lengths = start.leg_model.lengths(full0[:, None, parameters.span("legs")], readings)
+    lengths = start.leg_model.lengths(full0[:, None, parameters.span("legs")], readings, inputs)
     home = start.home_pose if start.home_pose is not None else np.zeros(6)
     fk = forward_kinematics_from_arrays(
         u, s, lengths, np.broadcast_to(home, (*lengths.shape[:-1], 6)), start.euler

@@ -18,6 +18,8 @@ Public names
   a session (data and instrument; one machine, several sessions per calibration).
 - ``Covariates``, ``COVARIATE_COLUMNS``: what the data carry beside the readings, per row
   (time, the legs' temperatures, the payload; docs/formats.md "Covariates").
+- ``with_conditions``, ``conditions_text``: one temperature or payload for every row (a
+  command's ``--temperature``, ``--payload``), and the conditions said in one line.
 - ``Registration``, ``register_targets``, ``register_pose_instrument``: an auto
   instrument frame registered from the data before the fit.
 
@@ -33,6 +35,8 @@ _NAMES = {
     "BallbarSetup": "ballbar_setup",
     "COVARIATE_COLUMNS": "covariates",
     "Covariates": "covariates",
+    "with_conditions": "covariates",
+    "conditions_text": "covariates",
     "ANGLE_SCALE": "setup",
     "FIXABLE": "setup",
     "FRAME_NAMES": "setup",
@@ -86,12 +90,14 @@ __all__ = [
     "TargetMeasurements",
     "TargetModel",
     "ToolModel",
+    "conditions_text",
     "full_pose",
     "instrument_for",
     "model_by_name",
     "register_instrument",
     "register_pose_instrument",
     "register_targets",
+    "with_conditions",
 ]
 
 __getattr__, _dir, _names = attach(__name__, _NAMES)

@@ -16,7 +16,7 @@ Imports :mod:`hexcal.errors` only.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Collection, Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -311,3 +311,70 @@ def check_rows(covariates: Covariates | None, rows: int, what: str = "poses") ->
     if covariates and len(covariates) != rows:
         raise UsageError(f"covariates of {len(covariates)} rows for {rows} {what}")
     return covariates
+
+
+def with_conditions(
+    covariates: Covariates | None,
+    rows: int,
+    temperature: float | None = None,
+    payload: Sequence[float] | float | None = None,
+    where: str = "the data",
+) -> Covariates:
+    """``covariates`` of ``rows`` rows with one temperature (°C, every leg) and one payload
+    (``kg`` or ``(kg, x, y, z)``, mm in the platform frame) for every row, as a command's
+    ``--temperature`` and ``--payload`` give them. Refused in one line: a value the rows already
+    carry (the file's own column and the option would disagree), and values
+    :func:`value_problem` refuses.
+
+    >>> cov = with_conditions(None, 2, 30.0, (12.0, 0.0, 0.0, 50.0))
+    >>> cov.names(), cov.temperatures[0, 0], cov.payload_com[1].tolist()
+    (('temperatures', 'payload_kg', 'payload_com'), np.float64(30.0), [0.0, 0.0, 50.0])
+    """
+    covariates = NO_COVARIATES if covariates is None else covariates
+    changes: dict[str, Any] = {}
+    if temperature is not None:
+        if covariates.temperatures is not None:
+            raise UsageError(f"{where} carries the legs' temperatures: leave out --temperature")
+        changes["temperatures"] = np.full(rows, float(temperature))
+    if payload is not None:
+        if covariates.payload_kg is not None:
+            raise UsageError(f"{where} carries the payload (payload_kg): leave out --payload")
+        values = np.atleast_1d(np.asarray(payload, dtype=float))
+        if values.shape not in ((1,), (4,)):
+            raise UsageError(
+                f"--payload: the mass (kg), or the mass and its centre x,y,z (mm); got {payload!r}"
+            )
+        changes["payload_kg"] = np.full(rows, values[0])
+        changes["payload_com"] = np.tile(values[1:], (rows, 1)) if len(values) == 4 else None
+    if not changes:
+        return covariates
+    if not covariates:
+        return Covariates(**changes)
+    return covariates.replace(**changes)
+
+
+def conditions_text(covariates: Covariates) -> str | None:
+    """The conditions of the rows in one line of numbers, for a command's output and a program's
+    header (``legs at 30 °C; payload 12 kg at (0, 0, 50) mm``), or None without temperatures or
+    payload. A quantity that varies over the rows is given as its range.
+
+    >>> conditions_text(Covariates(temperatures=[20.5, 22.0], payload_kg=[12.0, 12.0]))
+    'legs at 20.5 ... 22 °C; payload 12 kg'
+    """
+
+    def span(values: NDArray[np.float64], unit: str) -> str:
+        low, high = float(np.min(values)), float(np.max(values))
+        return f"{low:.6g}{unit}" if low == high else f"{low:.6g} ... {high:.6g}{unit}"
+
+    parts = []
+    if covariates.temperatures is not None and len(covariates):
+        parts.append(f"legs at {span(covariates.temperatures, ' °C')}")
+    if covariates.payload_kg is not None and len(covariates):
+        text = f"payload {span(covariates.payload_kg, ' kg')}"
+        com = covariates.payload_com
+        if com is not None and np.all(com == com[:1]):
+            text += " at ({:.6g}, {:.6g}, {:.6g}) mm".format(*com[0])
+        elif com is not None:
+            text += " (centre of mass varies)"
+        parts.append(text)
+    return "; ".join(parts) or None

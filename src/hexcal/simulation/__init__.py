@@ -18,6 +18,8 @@ Public names
   ``PoseStrategy``, ``FixedStrategy``, ``fixed_strategy``, ``InstrumentCampaign``,
   ``instrument_campaign``: studies of calibration strategies (``hexcal simulate``).
 - ``SerialExecutor``, ``DaskExecutor``, ``Executor``, ``Progress``: where the trials run.
+- ``warm_up``, ``constant_temperature``, ``payload_cases``: the conditions of a simulated
+  campaign (the legs' temperatures, the payloads), for ``simulate_session(covariates=...)``.
 
 Other names of the lazy map below (chunk functions, batch definitions, the runner's
 internals) are not part of the API.
@@ -50,6 +52,9 @@ _NAMES = {
     "StudyResult": "study",
     "TrialSeeds": "protocol",
     "campaign_bounds": "identify",
+    "constant_temperature": "conditions",
+    "payload_cases": "conditions",
+    "warm_up": "conditions",
     "chunk_indices": "runner",
     "dask_executor": "dask_executor",
     "default_chunk_size": "runner",
@@ -90,8 +95,10 @@ __all__ = [
     "StudyDefinition",
     "StudyResult",
     "TrialSeeds",
+    "constant_temperature",
     "fixed_strategy",
     "instrument_campaign",
+    "payload_cases",
     "random_machines",
     "run_paper_experiment",
     "run_study",
@@ -99,6 +106,7 @@ __all__ = [
     "simulate_measurements",
     "simulate_session",
     "true_machines",
+    "warm_up",
 ]
 
 __getattr__, _dir, _names = attach(__name__, _NAMES)

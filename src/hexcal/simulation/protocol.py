@@ -37,12 +37,13 @@ from hexcal.core import (
     leg_vectors_from_arrays,
     pose_errors,
 )
+from hexcal.core.kinematics import forward_with_covariates
 from hexcal.core.legs import LegModel, LinearLegs
 from hexcal.core.parameters import JOINT_NAMES, PARAMETER_NAMES
 from hexcal.errors import SimulationError
 from hexcal.instruments import Measurements
 from hexcal.instruments.base import MeasurementModel, Session
-from hexcal.instruments.covariates import Covariates
+from hexcal.instruments.covariates import NO_COVARIATES, Covariates
 
 
 @dataclass(frozen=True)
@@ -330,7 +331,8 @@ def simulate_session(
     noise (:meth:`MeasurementModel.simulate`; ``options`` such as a target ``missing_rate``).
     Leg errors are drawn first, then the instrument's. ``noise=None`` means the seed paper's.
     ``covariates`` (of the commanded poses: time, leg temperatures, payload) are carried into
-    the data, row by row (not yet simulated: the machine does not warm or give).
+    the data, row by row; a true machine whose leg model reads them (thermal, compliance terms,
+    :mod:`hexcal.core.covariate_legs`) reaches its poses under them: its legs warm and give.
 
     Examples
     --------
@@ -353,7 +355,17 @@ def simulate_session(
     machine = MachineBatch.from_geometry(true)
     sensor = noise.leg_errors(rng, (len(poses),))
     readings = leg_readings(nominal, inverse_kinematics(nominal, poses))
-    reached = machine.reach(readings[None], poses[None], nominal.euler, sensor=sensor[None])
+    if true.leg_model.covariates:  # the true legs under each pose's conditions
+        conditions = NO_COVARIATES if covariates is None else covariates
+        fk, _ = forward_with_covariates(true, readings, conditions, poses, "the simulated poses", sensor)
+        if not fk.all_converged:
+            raise SimulationError(
+                f"forward kinematics did not converge for {int(np.sum(~fk.converged))} simulated pose(s): "
+                "the commanded poses are not reachable by the simulated machine"
+            )
+        reached = fk.poses[None]
+    else:
+        reached = machine.reach(readings[None], poses[None], nominal.euler, sensor=sensor[None])
     data = instrument.simulate(
         instrument.parameters().values,
         reached[0],

@@ -330,8 +330,9 @@ def _leg_model(
 def _spec(geometry: Geometry) -> str:
     """The leg model's name as ``leg_model=`` takes it (``stroke:3``)."""
     legs = geometry.leg_model
-    degree = getattr(legs, "degree", None)
-    return f"{legs.name}:{degree}" if degree is not None else legs.name
+    degree = getattr(getattr(legs, "base", legs), "degree", None)
+    head, plus, rest = legs.name.partition("+")
+    return f"{head}:{degree}{plus}{rest}" if degree is not None else legs.name
 
 
 def check_split(split: Any) -> None:
