@@ -115,6 +115,11 @@ class Problem:
         The whole parameter set (machine blocks, then the sessions' blocks), replacing ``mask``.
     fit, fix
         Groups to vary and names or groups to hold, instead of ``mask``.
+    forces_at : Geometry, optional
+        The geometry whose joints give a leg model's pose-dependent inputs (the legs' axial
+        forces of a compliance term), held over the solve; default ``start``. The forces of a
+        nominal machine a few mm off are off by several per cent: :func:`hexcal.calibration.estimate`
+        takes them at a first fit's geometry.
     """
 
     def __init__(
@@ -127,8 +132,10 @@ class Problem:
         *,
         fit: str | Sequence[str] | None = None,
         fix: Iterable[str] = (),
+        forces_at: Geometry | None = None,
     ) -> None:
         self.start = start
+        self.forces_at = start if forces_at is None else forces_at
         self.sessions = as_sessions(data, model)
         if parameters is None:
             parameters = problem_parameters(start, self.sessions, mask, fit, fix)
@@ -155,7 +162,7 @@ class Problem:
             part = Part(session, labels[k], block, rows, readings, observed, present)
             if self.legs.covariates:  # each pose's inputs, once (forces at the start poses)
                 poses = self.start_poses(part, k) if self.legs.inputs_need_poses else None
-                inputs = geometry_inputs(start, inst.covariates(session.data), poses, labels[k])
+                inputs = geometry_inputs(self.forces_at, inst.covariates(session.data), poses, labels[k])
                 part = Part(session, labels[k], block, rows, readings, observed, present, inputs)
             parts.append(part)
         self.parts: tuple[Part, ...] = tuple(parts)
