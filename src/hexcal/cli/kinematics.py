@@ -58,7 +58,7 @@ def cmd_ik(args: argparse.Namespace) -> None:
     bad: list[str] = []
     outside = 0
     beyond = None
-    said: list[str] = []
+    said: list = []  # the conditions of the first block of rows, and its length
 
     def given(poses: Any, covariates: Any) -> Any:  # the file's conditions, or the options'
         return with_conditions(covariates, len(poses), args.temperature, args.payload, args.poses)
@@ -72,7 +72,7 @@ def cmd_ik(args: argparse.Namespace) -> None:
         for poses, ids, covariates in _first_then(first, read):
             covariates = given(poses, covariates)
             if not said and (text := conditions_text(covariates)) and geometry.leg_model.covariates:
-                said.append(text)
+                said.extend([text, len(covariates)])
             inputs = geometry_inputs(geometry, covariates, poses, args.poses)
             lengths = inverse_kinematics(geometry, poses)
             feasible = is_feasible(geometry, poses, margin=1e-6)
@@ -92,7 +92,8 @@ def cmd_ik(args: argparse.Namespace) -> None:
         warn(f"hexcal: warning: {outside} pose(s) outside the leg length limits: {', '.join(bad)}{more}")
     _warn_beyond_stroke(beyond, "pose(s)")
     if args.out != "-":
-        at = f" ({geometry.leg_model.name} legs: {said[0]} in the first rows)" if said else ""
+        first = f" in the first {said[1]} rows" if said and said[1] < rows else ""
+        at = f" ({geometry.leg_model.name} legs: {said[0]}{first})" if said else ""
         print(f"wrote leg lengths of {rows} pose(s) to {args.out}{at}")
 
 
@@ -122,7 +123,7 @@ def cmd_fk(args: argparse.Namespace) -> None:
 
     geometry = load_geometry(args.geometry, args.euler)
     model = geometry.leg_model
-    said: list[str] = []
+    said: list = []  # the conditions of the first block of rows, and its length
     if not args.guess and geometry.home_pose is None:
         raise CommandError("the geometry has no home_pose: give starting poses with --guess")
     guesses = iter_poses(args.guess, geometry.euler) if args.guess else None
@@ -150,7 +151,7 @@ def cmd_fk(args: argparse.Namespace) -> None:
                 legs.covariates, len(legs.ids), args.temperature, args.payload, args.legs
             )
             if not said and (text := conditions_text(legs.covariates)) and model.covariates:
-                said.append(text)
+                said.extend([text, len(legs.covariates)])
             inputs = None
             if legs.readings is not None and model.covariates and not model.inputs_need_poses:
                 inputs = geometry_inputs(geometry, legs.covariates, None, args.legs)
@@ -216,7 +217,8 @@ def cmd_fk(args: argparse.Namespace) -> None:
     write_table_blocks(args.out, ("x", "y", "z", "a", "b", "c", *extra), blocks())
     _warn_beyond_stroke(beyond, "row(s) of readings")
     if args.out != "-":
-        at = f"; {model.name} legs: {said[0]} in the first rows" if said else ""
+        first = f" in the first {said[1]} rows" if said and said[1] < stats["rows"] else ""
+        at = f"; {model.name} legs: {said[0]}{first}" if said else ""
         print(
             f"wrote {stats['rows']} pose(s) to {args.out} (max leg residual "
             f"{stats['residual']:.1e} mm, at most {stats['iterations']} iterations{at})"
