@@ -11,6 +11,7 @@ see exactly the lines hexcal meant.
 
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -61,8 +62,13 @@ def _export(capsys, geometry_file: Path, out: Path) -> dict[str, str]:
 
 
 def _content(text: str) -> list[str]:
-    """The lines that are not comments or blank (what LinuxCNC acts on)."""
-    return [line for line in text.split("\n") if line.strip() and not line.lstrip().startswith(("#", ";"))]
+    """The lines that are not comments or blank (what LinuxCNC acts on), but the geometry's name
+    for ``hexcal import linuxcnc``, which must be one safe word (letters, digits, ``_ . + -``)."""
+    lines = [line for line in text.split("\n") if line.strip() and not line.lstrip().startswith(("#", ";"))]
+    for line in lines:
+        if line.startswith("HEXCAL_NAME"):
+            assert re.fullmatch(r"HEXCAL_NAME = [A-Za-z0-9_.+-]{1,80}", line), repr(line)
+    return [line for line in lines if not line.startswith("HEXCAL_NAME")]
 
 
 def _assert_safe_comments(text: str) -> None:
