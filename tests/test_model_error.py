@@ -263,6 +263,10 @@ def test_the_same_session_twice_is_refused(bumped):
         UsageError, match=r"the same session twice \(run\.csv and copy\.csv hold the same observations"
     ):
         estimate(NOMINAL, [bumped, copy])
+    # the same rows in another order are the same observations
+    reversed_rows = bumped.data.subset(np.arange(len(bumped.ids))[::-1])
+    with pytest.raises(UsageError, match=r"run\.csv and rev\.csv hold the same observations"):
+        estimate(NOMINAL, [bumped, Session(reversed_rows, bumped.instrument, "rev.csv")])
     # the same poses measured again (new values) are another session
     again = campaign(seed=1, bump_at=30).data
     noisy = again.replace(targets=again.targets + 0.001)
