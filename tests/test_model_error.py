@@ -21,6 +21,7 @@ from hexcal.core import NoiseModel, preset, random_poses
 from hexcal.errors import CalibrationFailed, InputError, UsageError
 from hexcal.estimation import Problem, estimate_noise
 from hexcal.instruments import Session, TargetModel
+from hexcal.instruments.ballbar_setup import BallbarSetup
 from hexcal.instruments.known_noise import DEVICES, LEG_ENCODERS, device_for
 from hexcal.instruments.setup import Setup
 from hexcal.simulation import simulate_session
@@ -106,9 +107,20 @@ def test_a_setup_declares_its_instrument_and_noise_and_bad_ones_are_one_line():
         ({"noise": {"orientation": 1e-4}}, "not a noise of this setup"),
         ({"noise": {"position": 0}}, "must be a number > 0"),
         ({"noise": "0.01"}, "must be a mapping"),
+        # a σ ten times beyond what any such instrument shows is no such instrument (the
+        # verdict fails a learned one there): 1e9 mm, a slip of units
+        ({"noise": {"position": 1e9}}, r"1e\+09 mm is no noise of a laser tracker \(they show 0\.003 \.\.\."),
+        ({"noise": {"position": 1e-6}}, "is no noise of a laser tracker"),
     ):
         with pytest.raises(InputError, match=message):
             Setup.from_dict(base | extra)
+    assert Setup.from_dict(base | {"noise": {"position": 0.4}}).noise == {"position": 0.4}  # 8x: judged later
+    tool = {k: v for k, v in setup.to_dict().items() if k != "calibration"}
+    with pytest.raises(InputError, match="orientation_deg: 10 deg is no noise of a motion-capture system"):
+        Setup.from_dict(tool | {"noise": {"orientation_deg": 10}})
+    bar = {"units": "mm", "ballbar": {"pivot": [0, 0, 750], "ball": [0, 0, -50], "length": 150}}
+    with pytest.raises(InputError, match=r"noise\.d: 1 mm is no noise of a telescoping ballbar"):
+        BallbarSetup.from_dict(bar | {"noise": {"d": 1}})
 
 
 def test_a_group_the_data_cannot_determine_is_held_at_the_declared_noise_whatever_the_start():
