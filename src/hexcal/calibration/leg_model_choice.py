@@ -51,6 +51,7 @@ from hexcal.core.legs import LEG_MODELS, LegModel, LinearLegs
 from hexcal.core.progress import task
 from hexcal.core.stroke_legs import (
     DEFAULT_DEGREE,
+    MAX_DEGREE,
     StrokeExcess,
     StrokeLegs,
     stroke_excess,
@@ -70,15 +71,19 @@ DEFAULT_FOLDS = 5
 def parse_leg_model(spec: str) -> tuple[str, int | None]:
     """``(name, degree)`` of a ``--leg-model`` value: ``auto``, a registered name, or
     ``stroke:DEGREE``; :class:`UsageError` naming the choices otherwise."""
-    name, _, degree = str(spec).strip().partition(":")
-    if name == "auto" and not degree:
+    name, colon, degree = str(spec).strip().partition(":")
+    if name == "auto" and not colon:
         return name, None
     if name not in LEG_MODELS:
         raise UsageError(f"--leg-model {spec!r}: choose auto, {', '.join(LEG_MODELS)} (stroke:DEGREE)")
-    if not degree:
+    if not colon:
         return name, DEFAULT_DEGREE if name == StrokeLegs.name else None
-    if name != StrokeLegs.name or not degree.isdigit():
+    if name != StrokeLegs.name:
         raise UsageError(f"--leg-model {spec!r}: only the stroke model takes a degree, e.g. stroke:3")
+    if not degree.isdigit() or not 2 <= int(degree) <= MAX_DEGREE:
+        raise UsageError(
+            f"--leg-model {spec!r}: the stroke model's degree is 2 to {MAX_DEGREE}, e.g. stroke:3"
+        )
     return name, int(degree)
 
 
@@ -92,7 +97,7 @@ def model_for(spec: str, geometry: Geometry, sessions: Sequence[Session] = ()) -
     if name == StrokeLegs.name:
         readings = [s.instrument.readings(s.data) for s in sessions]
         low, high = stroke_of(geometry, np.concatenate(readings) if readings else None)
-        return StrokeLegs(int(degree or DEFAULT_DEGREE), low, high)
+        return StrokeLegs(DEFAULT_DEGREE if degree is None else degree, low, high)
     return LEG_MODELS[name]()
 
 
