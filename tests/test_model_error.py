@@ -210,6 +210,17 @@ def test_split_options_that_name_nothing_are_one_line(bumped):
         split_sessions([bumped], ["p00"])
     with pytest.raises(UsageError, match="LABEL:ID"):
         split_sessions([bumped, bumped.replace(label="b.csv")], ["other.csv:p10"])
+    # a part too small to register its instrument again is named, not left to the
+    # identifiability check ("the poses cannot identify ... session2.t2.y")
+    one = r"split run\.csv:p59: a part of run\.csv would hold 1 pose\(s\) \(p59"
+    with pytest.raises(UsageError, match=one):
+        split_sessions([bumped], ["p59"])
+    two = r"split run\.csv:p02: a part of run\.csv would hold 2 pose\(s\) \(p00"
+    with pytest.raises(UsageError, match=two):
+        split_sessions([bumped], ["p02"])
+    with pytest.raises(UsageError, match=r"would hold 3 pose\(s\) \(p30 \.\.\. p32\)"):
+        split_sessions([bumped], ["p30", "p33"])
+    assert [len(p) for p in split_sessions([bumped], ["p05", "p55"])[0]] == [5, 50, 5]
 
 
 def test_warming_legs_are_called_a_drift():
