@@ -296,3 +296,13 @@ def test_the_same_session_twice_is_refused(bumped):
     estimate(
         NOMINAL, [bumped, Session(noisy, bumped.instrument, "again.csv")], with_bound=False, verdict=False
     )
+
+
+def test_calibrate_refuses_no_session_and_a_level_outside_0_1_in_one_line(bumped):
+    # the red-team pass of issue 31: calibrate(nominal, []) ended in AttributeError ('list'
+    # object has no attribute 'ids') and alpha=2 ran the outlier check at a level of 200 %
+    with pytest.raises(UsageError, match=r"^no session: give at least one"):
+        hexcal.calibrate(NOMINAL, [])
+    for alpha in (2, 0, -0.1, float("nan"), "0.05", True):
+        with pytest.raises(UsageError, match=r"^alpha \(the outlier check's level\) must be between 0 and 1"):
+            hexcal.calibrate(NOMINAL, [bumped], alpha=alpha)

@@ -26,6 +26,8 @@ def as_sessions(data: Any, model: MeasurementModel | None = None) -> tuple[Sessi
     read by ``model`` (default the full pose in the base frame)."""
     if isinstance(data, Session):
         return (data,)
+    if isinstance(data, Sequence) and not isinstance(data, str) and len(data) == 0:
+        raise UsageError("no session: give at least one (hexcal.read_sessions reads them from files)")
     if isinstance(data, Sequence) and data and all(isinstance(s, Session) for s in data):
         if model is not None:
             raise UsageError("give the instrument with each session, not as model=")
