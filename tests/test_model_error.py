@@ -306,3 +306,21 @@ def test_calibrate_refuses_no_session_and_a_level_outside_0_1_in_one_line(bumped
     for alpha in (2, 0, -0.1, float("nan"), "0.05", True):
         with pytest.raises(UsageError, match=r"^alpha \(the outlier check's level\) must be between 0 and 1"):
             hexcal.calibrate(NOMINAL, [bumped], alpha=alpha)
+
+
+def test_a_bump_over_a_pause_in_the_time_column_is_a_step_not_a_drift():
+    # the red-team pass of issue 31: a tracker bumped during a pause (times 0-29 s, then from
+    # 1e9 s on) was called "a drift from the first pose to the last", whose remedy is no
+    # split: a drift in time over one jump is the step at the jump
+    from hexcal.instruments.covariates import Covariates
+
+    session = campaign(bump_at=30)
+    time = np.concatenate([np.arange(30.0), 1e9 + np.arange(30.0)])
+    timed = session.replace(data=session.data.replace(covariates=Covariates(time=time)))
+    found = next(r for r in estimate(NOMINAL, [timed]).verdict.reasons if r.code in ("drift", "step"))
+    assert found.code == "step" and found.data["after"] == "p30", found.message
+    # times of any size: 1e306 s and more (their sum overflowed)
+    times = Covariates(time=1e306 * (1 + np.arange(60.0)))
+    huge = session.replace(data=session.data.replace(covariates=times))
+    found = next(r for r in estimate(NOMINAL, [huge]).verdict.reasons if r.code in ("drift", "step"))
+    assert found.code == "step" and found.data["after"] == "p30", found.message
