@@ -324,3 +324,27 @@ def test_a_bump_over_a_pause_in_the_time_column_is_a_step_not_a_drift():
     huge = session.replace(data=session.data.replace(covariates=times))
     found = next(r for r in estimate(NOMINAL, [huge]).verdict.reasons if r.code in ("drift", "step"))
     assert found.code == "step" and found.data["after"] == "p30", found.message
+
+
+def test_calibrate_and_its_files_refuse_what_python_users_mistype_in_one_line(bumped, tmp_path):
+    # the red-team pass of issue 31: each of these ended in a TypeError, AttributeError or
+    # KeyError, or was silently misread (robust="no" is truthy; save_setups("s.yaml") wrote
+    # the files "s", ".", "y", ...; fewer paths than sessions wrote fewer setups)
+    for call, line in (
+        (lambda: hexcal.calibrate("paper-hmt", [bumped]), r"^calibrate: the nominal Geometry"),
+        (lambda: hexcal.calibrate(NOMINAL, "run.csv"), r"give sessions, not a file name"),
+        (lambda: hexcal.calibrate(NOMINAL, [bumped], split=5), r"^split must be 'auto' or LABEL:ID"),
+        (lambda: hexcal.calibrate(NOMINAL, [bumped], robust="no"), r"^robust must be True or False"),
+    ):
+        with pytest.raises(UsageError, match=line):
+            call()
+    split = hexcal.calibrate(NOMINAL, [bumped], split=["p30"])
+    with pytest.raises(UsageError, match=r"^report: fmt is 'text' or 'json'"):
+        split.report("pdf")
+    three = [tmp_path / f"{k}.yaml" for k in range(3)]
+    for paths in (str(tmp_path / "s.yaml"), [tmp_path / "one.yaml"], three):
+        with pytest.raises(UsageError, match=r"^save_setups: one path per session, 2 in order \(run\.csv#1"):
+            split.save_setups(paths)
+    assert list(tmp_path.iterdir()) == []
+    split.save_setups([tmp_path / "a.yaml", tmp_path / "b.yaml"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.yaml", "b.yaml"]

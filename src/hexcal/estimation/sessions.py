@@ -8,6 +8,7 @@ plain groups (``frame``, ``tool``, ``targets``) gather every session's.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -26,7 +27,9 @@ def as_sessions(data: Any, model: MeasurementModel | None = None) -> tuple[Sessi
     read by ``model`` (default the full pose in the base frame)."""
     if isinstance(data, Session):
         return (data,)
-    if isinstance(data, Sequence) and not isinstance(data, str) and len(data) == 0:
+    if isinstance(data, str | os.PathLike):
+        raise UsageError(f"{data!r}: give sessions, not a file name (hexcal.read_sessions reads files)")
+    if isinstance(data, Sequence) and len(data) == 0:
         raise UsageError("no session: give at least one (hexcal.read_sessions reads them from files)")
     if isinstance(data, Sequence) and data and all(isinstance(s, Session) for s in data):
         if model is not None:

@@ -163,6 +163,8 @@ class Validation:
         JSON (``"json"``)."""
         from hexcal.report import render
 
+        if fmt not in ("text", "json"):
+            raise UsageError(f"report: fmt is 'text' or 'json' (html(): the page), got {fmt!r}")
         return render("validation", self.to_dict(), fmt)
 
     def html(self) -> str:
