@@ -175,6 +175,25 @@ def test_an_unknown_hexcal_euler_is_one_line_naming_file_and_line():
         import_linuxcnc(files[HAL_FILE], bad)
 
 
+@pytest.mark.parametrize(
+    ("key", "value", "message"),
+    [
+        ("HEXCAL_HOME_ANGLES", "1 2", r"2 value\(s\), not 3"),
+        ("HEXCAL_WORKSPACE_ANGLES", "-10 10", r"2 value\(s\), not 6"),
+        ("HEXCAL_WORKSPACE_ANGLES", "10 -10 -10 10 -10 10", "each range is a minimum then a maximum"),
+        ("HEXCAL_WORKSPACE_ANGLES", "-1e9 1e9 -10 10 -10 10", "within ±180 degrees"),
+    ],
+)
+def test_an_edited_hexcal_angle_key_is_refused_not_left_out(key, value, message):
+    # the red-team pass of issue 31: these were dropped (a warning, or nothing at all) and the
+    # geometry written without its workspace or with HOME's angles
+    files = export_linuxcnc(awkward().replace(euler="ZYX"))
+    bad = re.sub(rf"^{key} = .*$", f"{key} = {value}", files[INI_FILE], flags=re.M)
+    assert bad != files[INI_FILE]
+    with pytest.raises(LinuxCNCFormatError, match=rf"INI file: line \d+: \[TRAJ\] {key}: (.* )?{message}"):
+        import_linuxcnc(files[HAL_FILE], bad)
+
+
 def test_import_without_ini_takes_l0_at_the_home_pose_and_says_so():
     g = awkward()
     back, warnings = import_linuxcnc(export_linuxcnc(g)[HAL_FILE], home_pose=[0, 0, 800, 0, 0, 0])

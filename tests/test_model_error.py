@@ -21,6 +21,7 @@ from hexcal.core import NoiseModel, preset, random_poses
 from hexcal.errors import CalibrationFailed, InputError, UsageError
 from hexcal.estimation import Problem, estimate_noise
 from hexcal.instruments import Session, TargetModel
+from hexcal.instruments.ballbar_setup import BallbarSetup
 from hexcal.instruments.known_noise import DEVICES, LEG_ENCODERS, device_for
 from hexcal.instruments.setup import Setup
 from hexcal.simulation import simulate_session
@@ -106,9 +107,20 @@ def test_a_setup_declares_its_instrument_and_noise_and_bad_ones_are_one_line():
         ({"noise": {"orientation": 1e-4}}, "not a noise of this setup"),
         ({"noise": {"position": 0}}, "must be a number > 0"),
         ({"noise": "0.01"}, "must be a mapping"),
+        # a σ ten times beyond what any such instrument shows is no such instrument (the
+        # verdict fails a learned one there): 1e9 mm, a slip of units
+        ({"noise": {"position": 1e9}}, r"1e\+09 mm is no noise of a laser tracker \(they show 0\.003 \.\.\."),
+        ({"noise": {"position": 1e-6}}, "is no noise of a laser tracker"),
     ):
         with pytest.raises(InputError, match=message):
             Setup.from_dict(base | extra)
+    assert Setup.from_dict(base | {"noise": {"position": 0.4}}).noise == {"position": 0.4}  # 8x: judged later
+    tool = {k: v for k, v in setup.to_dict().items() if k != "calibration"}
+    with pytest.raises(InputError, match="orientation_deg: 10 deg is no noise of a motion-capture system"):
+        Setup.from_dict(tool | {"noise": {"orientation_deg": 10}})
+    bar = {"units": "mm", "ballbar": {"pivot": [0, 0, 750], "ball": [0, 0, -50], "length": 150}}
+    with pytest.raises(InputError, match=r"noise\.d: 1 mm is no noise of a telescoping ballbar"):
+        BallbarSetup.from_dict(bar | {"noise": {"d": 1}})
 
 
 def test_a_group_the_data_cannot_determine_is_held_at_the_declared_noise_whatever_the_start():
@@ -198,6 +210,17 @@ def test_split_options_that_name_nothing_are_one_line(bumped):
         split_sessions([bumped], ["p00"])
     with pytest.raises(UsageError, match="LABEL:ID"):
         split_sessions([bumped, bumped.replace(label="b.csv")], ["other.csv:p10"])
+    # a part too small to register its instrument again is named, not left to the
+    # identifiability check ("the poses cannot identify ... session2.t2.y")
+    one = r"split run\.csv:p59: a part of run\.csv would hold 1 pose\(s\) \(p59"
+    with pytest.raises(UsageError, match=one):
+        split_sessions([bumped], ["p59"])
+    two = r"split run\.csv:p02: a part of run\.csv would hold 2 pose\(s\) \(p00"
+    with pytest.raises(UsageError, match=two):
+        split_sessions([bumped], ["p02"])
+    with pytest.raises(UsageError, match=r"would hold 3 pose\(s\) \(p30 \.\.\. p32\)"):
+        split_sessions([bumped], ["p30", "p33"])
+    assert [len(p) for p in split_sessions([bumped], ["p05", "p55"])[0]] == [5, 50, 5]
 
 
 def test_warming_legs_are_called_a_drift():
@@ -263,9 +286,65 @@ def test_the_same_session_twice_is_refused(bumped):
         UsageError, match=r"the same session twice \(run\.csv and copy\.csv hold the same observations"
     ):
         estimate(NOMINAL, [bumped, copy])
+    # the same rows in another order are the same observations
+    reversed_rows = bumped.data.subset(np.arange(len(bumped.ids))[::-1])
+    with pytest.raises(UsageError, match=r"run\.csv and rev\.csv hold the same observations"):
+        estimate(NOMINAL, [bumped, Session(reversed_rows, bumped.instrument, "rev.csv")])
     # the same poses measured again (new values) are another session
     again = campaign(seed=1, bump_at=30).data
     noisy = again.replace(targets=again.targets + 0.001)
     estimate(
         NOMINAL, [bumped, Session(noisy, bumped.instrument, "again.csv")], with_bound=False, verdict=False
     )
+
+
+def test_calibrate_refuses_no_session_and_a_level_outside_0_1_in_one_line(bumped):
+    # the red-team pass of issue 31: calibrate(nominal, []) ended in AttributeError ('list'
+    # object has no attribute 'ids') and alpha=2 ran the outlier check at a level of 200 %
+    with pytest.raises(UsageError, match=r"^no session: give at least one"):
+        hexcal.calibrate(NOMINAL, [])
+    for alpha in (2, 0, -0.1, float("nan"), "0.05", True):
+        with pytest.raises(UsageError, match=r"^alpha \(the outlier check's level\) must be between 0 and 1"):
+            hexcal.calibrate(NOMINAL, [bumped], alpha=alpha)
+
+
+def test_a_bump_over_a_pause_in_the_time_column_is_a_step_not_a_drift():
+    # the red-team pass of issue 31: a tracker bumped during a pause (times 0-29 s, then from
+    # 1e9 s on) was called "a drift from the first pose to the last", whose remedy is no
+    # split: a drift in time over one jump is the step at the jump
+    from hexcal.instruments.covariates import Covariates
+
+    session = campaign(bump_at=30)
+    time = np.concatenate([np.arange(30.0), 1e9 + np.arange(30.0)])
+    timed = session.replace(data=session.data.replace(covariates=Covariates(time=time)))
+    found = next(r for r in estimate(NOMINAL, [timed]).verdict.reasons if r.code in ("drift", "step"))
+    assert found.code == "step" and found.data["after"] == "p30", found.message
+    # times of any size: 1e306 s and more (their sum overflowed)
+    times = Covariates(time=1e306 * (1 + np.arange(60.0)))
+    huge = session.replace(data=session.data.replace(covariates=times))
+    found = next(r for r in estimate(NOMINAL, [huge]).verdict.reasons if r.code in ("drift", "step"))
+    assert found.code == "step" and found.data["after"] == "p30", found.message
+
+
+def test_calibrate_and_its_files_refuse_what_python_users_mistype_in_one_line(bumped, tmp_path):
+    # the red-team pass of issue 31: each of these ended in a TypeError, AttributeError or
+    # KeyError, or was silently misread (robust="no" is truthy; save_setups("s.yaml") wrote
+    # the files "s", ".", "y", ...; fewer paths than sessions wrote fewer setups)
+    for call, line in (
+        (lambda: hexcal.calibrate("paper-hmt", [bumped]), r"^calibrate: the nominal Geometry"),
+        (lambda: hexcal.calibrate(NOMINAL, "run.csv"), r"give sessions, not a file name"),
+        (lambda: hexcal.calibrate(NOMINAL, [bumped], split=5), r"^split must be 'auto' or LABEL:ID"),
+        (lambda: hexcal.calibrate(NOMINAL, [bumped], robust="no"), r"^robust must be True or False"),
+    ):
+        with pytest.raises(UsageError, match=line):
+            call()
+    split = hexcal.calibrate(NOMINAL, [bumped], split=["p30"])
+    with pytest.raises(UsageError, match=r"^report: fmt is 'text' or 'json'"):
+        split.report("pdf")
+    three = [tmp_path / f"{k}.yaml" for k in range(3)]
+    for paths in (str(tmp_path / "s.yaml"), [tmp_path / "one.yaml"], three):
+        with pytest.raises(UsageError, match=r"^save_setups: one path per session, 2 in order \(run\.csv#1"):
+            split.save_setups(paths)
+    assert list(tmp_path.iterdir()) == []
+    split.save_setups([tmp_path / "a.yaml", tmp_path / "b.yaml"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.yaml", "b.yaml"]

@@ -79,3 +79,22 @@ def test_a_leg_model_whose_terms_are_all_held_at_zero_is_refused(tmp_path: Path)
                "--fix", "stroke", "--out", tmp_path / "g.yaml")  # fmt: skip
     assert done.code == 1 and "every term of the stroke leg model at 0" in done.err
     assert not (tmp_path / "g.yaml").exists()
+
+
+def test_more_folds_than_poses_are_refused_in_one_line() -> None:
+    """``validate --folds 41`` of a 40-pose tracker session ended "cannot reshape array of size
+    0 into shape (0,newaxis)" (an empty fold): the red-team pass of issue 31."""
+    import hexcal
+    from hexcal.core import NoiseModel, random_poses
+    from hexcal.instruments import TargetModel
+    from hexcal.instruments.setup import Setup
+    from hexcal.simulation import simulate_session
+
+    g = preset("paper-hmt")
+    setup = Setup(np.array([2500.0, -800, 300, 0.03, -0.05, 0.6]), {"t1": np.array([0.0, 0, 60]),
+                  "t2": np.array([150.0, 20, 55]), "t3": np.array([-40.0, 160, 70])})  # fmt: skip
+    noise = NoiseModel(0.005, 0.015, 0.0, "normal")
+    session = simulate_session(g, g, TargetModel(setup), random_poses(g, 12, 1), noise, rng=1)
+    line = r"^13 folds for 12 poses: each fold holds a pose; give at most 12$"
+    with pytest.raises(ValidationError, match=line):
+        hexcal.validate(g, session, folds=13)

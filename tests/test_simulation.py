@@ -365,3 +365,15 @@ def test_map_trials_interrupted_stops_its_worker_processes():
     while multiprocessing.active_children() and time.monotonic() < deadline:
         time.sleep(0.05)
     assert not multiprocessing.active_children()
+
+
+def test_local_processes_are_at_most_the_cores():
+    # the red-team pass of issue 31: --jobs 1000 over 1000 chunks (100,000 trials) would start
+    # 1000 processes of some 100 MB each, beyond any memory budget, for no speed
+    import os
+
+    from hexcal.simulation import resolve_jobs
+
+    cores = os.cpu_count() or 1
+    assert resolve_jobs(None) == resolve_jobs(0) == cores
+    assert resolve_jobs(1) == 1 and resolve_jobs(10**6) == cores

@@ -212,6 +212,13 @@ def test_parse_and_fit_groups():
     for bad in ("spline", "linear:2", "stroke:x"):
         with pytest.raises(UsageError, match="--leg-model"):
             parse_leg_model(bad)
+    # a degree given is the degree used: stroke:0 and stroke: were read as the default cubic
+    for bad in ("stroke:0", "stroke:", "stroke:1", "stroke:9", "auto:"):
+        with pytest.raises(UsageError, match="--leg-model"):
+            parse_leg_model(bad)
+    geometry = preset("paper-hmt")
+    with pytest.raises(UsageError, match=r"'stroke:0': the stroke model's degree is 2 to 8"):
+        start_for("stroke:0", geometry)
     assert fit_for("joints,l0", StrokeLegs(2)) == "joints,l0,stroke"
     assert fit_for("joints,l0", LinearLegs()) == "joints,l0"
 

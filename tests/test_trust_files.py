@@ -201,3 +201,24 @@ def test_import_accepts_keys_it_does_not_read_given_twice(capsys, config):
         "--out", config / "g.yaml",
     )  # fmt: skip
     assert status == 0, err
+
+
+def test_numbers_with_an_exponent_are_numbers_in_every_yaml_file_read(tmp_path):
+    # PyYAML (YAML 1.1) reads 1e-3 and 1.5e3 as text: a setup's noise {position: 1e-3} was
+    # refused as "must be a number > 0, got '1e-3'"; YAML 1.2 and hexcal read numbers
+    from hexcal.io import load_setup
+    from hexcal.io.inputs import parse_yaml
+
+    assert parse_yaml("a: 1e-3\nb: -2E5\nc: 1.5e3\nd: .5e1\ne: x1e3\nf: .inf\n", "x.yaml") == {
+        "a": 0.001,
+        "b": -200000.0,
+        "c": 1500.0,
+        "d": 5.0,
+        "e": "x1e3",
+        "f": float("inf"),
+    }
+    text = "units: mm\ninstrument_frame: auto\ntargets: {t1: [1e0, -1, 6.1e1]}\nnoise: {position: 1.5e-2}\n"
+    (tmp_path / "s.yaml").write_text(text)
+    setup = load_setup(tmp_path / "s.yaml")
+    assert setup.noise == {"position": 0.015}
+    assert np.allclose(setup.target_array, [[1.0, -1.0, 61.0]])

@@ -425,3 +425,19 @@ def test_select_says_the_noise_and_the_instrument_it_planned_for(campaigns: Camp
     assert dict(_table(page, "selection"))["measured by"] == body["instrument"]
     inputs = page.split('id="inputs"')[1]
     assert "targets-start.yaml" in inputs and "paper-hmt" in inputs
+
+
+def test_validate_refuses_python_mistypes_in_one_line():
+    # the red-team pass of issue 31: these ended in AttributeError or numpy's TypeError
+    g = hexcal.preset("paper-hmt")
+    from hexcal.instruments import FullPoseModel
+
+    data = hexcal.Measurements(hexcal.workspace_corners(g)[:10], np.zeros((10, 6)))
+    session = hexcal.Session(data, FullPoseModel())
+    for options, line in (
+        ({"nominal": "paper-hmt"}, r"^validate: nominal is a Geometry"),
+        ({"noise": "auto"}, r"^validate: noise is a NoiseModel or None"),
+        ({"seed": "x"}, r"^validate: seed is an integer"),
+    ):
+        with pytest.raises(UsageError, match=line):
+            hexcal.validate(g, session, **options)

@@ -172,6 +172,8 @@ def estimate(
     max_change = MAX_CHANGE if max_change is None else max_change
     if not max_change > 0:
         raise UsageError(f"max_change must be > 0, got {max_change}")
+    if isinstance(alpha, bool) or not isinstance(alpha, int | float) or not 0 < alpha < 1:
+        raise UsageError(f"alpha (the outlier check's level) must be between 0 and 1, got {alpha!r}")
     estimator = get_estimator(method)
     diagnose = with_bound if diagnose is None else diagnose
     verdict = with_bound if verdict is None else verdict

@@ -52,6 +52,7 @@ from hexcal.core.legs import LEG_MODELS, LegModel, LinearLegs
 from hexcal.core.progress import task
 from hexcal.core.stroke_legs import (
     DEFAULT_DEGREE,
+    MAX_DEGREE,
     StrokeExcess,
     StrokeLegs,
     stroke_excess,
@@ -82,19 +83,23 @@ def parse_leg_model(spec: str) -> tuple[str, int | None]:
     ``stroke:DEGREE``, each optionally with covariate terms (``stroke:2+thermal``);
     :class:`UsageError` naming the choices otherwise."""
     head, plus, terms = str(spec).strip().partition("+")
-    base, _, degree = head.partition(":")
+    base, colon, degree = head.partition(":")
     name = base + plus + terms
-    if name == "auto" and not degree:
+    if name == "auto" and not colon:
         return name, None
     if name not in LEG_MODELS:
         raise UsageError(
             f"--leg-model {spec!r}: choose auto, {', '.join(LEG_MODELS)} "
             "(stroke:DEGREE, stroke:DEGREE+thermal)"
         )
-    if not degree:
+    if not colon:
         return name, DEFAULT_DEGREE if base == StrokeLegs.name else None
-    if base != StrokeLegs.name or not degree.isdigit():
+    if base != StrokeLegs.name:
         raise UsageError(f"--leg-model {spec!r}: only the stroke model takes a degree, e.g. stroke:3")
+    if not degree.isdigit() or not 2 <= int(degree) <= MAX_DEGREE:
+        raise UsageError(
+            f"--leg-model {spec!r}: the stroke model's degree is 2 to {MAX_DEGREE}, e.g. stroke:3"
+        )
     return name, int(degree)
 
 

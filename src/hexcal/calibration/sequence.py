@@ -264,7 +264,8 @@ def sequence_findings(
         q_pose, _ = np.linalg.qr(b)
         families = _families(problem, part, full, poses, pp.whitener, pp.sigma)
         tau = session_times(part)
-        tau = (tau - tau.mean()) / max(float(np.ptp(tau)), 1e-300)
+        tau = (tau - tau[0]) / max(float(np.ptp(tau)), 1e-300)  # any origin, any size of time
+        tau -= tau.mean()
         candidates: list[dict[str, Any]] = []
         rows = slice(offsets[s], offsets[s + 1])
         for family, (z, names) in families.items():
@@ -310,7 +311,10 @@ def sequence_findings(
                         "m": m_k[j],
                     }
                 )
-            # the drift: one regressor, τ-weighted sums
+            # the drift: one regressor, τ-weighted sums; where the time jumps once (a pause), a
+            # drift in time is the step at the jump, and the step says where to split
+            if split.size and _step_like(tau, int(split[j])):
+                continue
             sd = np.einsum("m,mq->q", tau, score)
             cd = np.einsum("m,mnq->nq", tau, cross)
             md = np.einsum("m,mqp->qp", tau**2, gram) - cd.T @ cd
@@ -359,6 +363,19 @@ def sequence_findings(
             )
         )
     return sorted(out, key=lambda f: f.p_value)
+
+
+#: The correlation of the times with a step beyond which a drift is that step (the time
+#: jumps once, as over a pause, and is nearly constant on either side).
+STEP_LIKE = 0.99
+
+
+def _step_like(tau: NDArray[np.float64], k: int) -> bool:
+    """Whether the (centred) times ``tau`` follow a step at observation ``k``."""
+    step = (np.arange(len(tau)) >= k).astype(float)
+    step -= step.mean()
+    norm = float(np.linalg.norm(step) * np.linalg.norm(tau))
+    return norm > 0 and abs(float(step @ tau)) / norm > STEP_LIKE
 
 
 #: What moved, by family, as the verdict says it.

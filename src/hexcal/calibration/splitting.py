@@ -10,10 +10,13 @@ unknown again) and is labelled ``LABEL#2`` (``#3``, ... for more splits; the fir
 ``LABEL#1``).
 
 >>> from hexcal.instruments import FullPoseModel, Measurements, Session
->>> data = Measurements(np.zeros((4, 6)), np.zeros((4, 6)), ("a", "b", "c", "d"))
->>> parts, done = split_sessions([Session(data, FullPoseModel(), "s.csv")], ["s.csv:c"])
->>> [(p.label, p.ids, p.instrument.name) for p in parts], done
-([('s.csv#1', ('a', 'b'), 'pose'), ('s.csv#2', ('c', 'd'), 'tool')], ('s.csv:c',))
+>>> data = Measurements(np.zeros((10, 6)), np.zeros((10, 6)), tuple("abcdefghij"))
+>>> parts, done = split_sessions([Session(data, FullPoseModel(), "s.csv")], ["s.csv:f"])
+>>> [(p.label, p.ids[0], len(p), p.instrument.name) for p in parts], done
+([('s.csv#1', 'a', 5, 'pose'), ('s.csv#2', 'f', 5, 'tool')], ('s.csv:f',))
+
+Each part needs :data:`~hexcal.calibration.limits.MIN_SEGMENT` poses (its instrument is
+registered again).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from hexcal.calibration.limits import MIN_SEGMENT
 from hexcal.errors import UsageError
 from hexcal.estimation.sessions import session_labels
 from hexcal.instruments.base import Session
@@ -70,6 +74,12 @@ def split_sessions(sessions: Sequence[Session], at: Sequence[str]) -> tuple[list
         bounds = [0, *cuts, len(session)]
         instrument = session.instrument
         for n, (lo, hi) in enumerate(pairwise(bounds)):
+            if hi - lo < MIN_SEGMENT:  # its instrument registered again from a handful of poses
+                raise UsageError(
+                    f"split {labels[k]}:{session.ids[lo if n else hi]}: a part of {labels[k]} would hold "
+                    f"{hi - lo} pose(s) ({session.ids[lo]} ... {session.ids[hi - 1]}); each part is a "
+                    f"session of its own, its instrument registered again: give it at least {MIN_SEGMENT}"
+                )
             part = session.subset(np.arange(lo, hi))
             if n:
                 instrument = instrument.after_step()

@@ -228,6 +228,8 @@ def validate(
     if folds < 2:
         raise UsageError(f"folds must be at least 2, got {folds}")
     m, free = len(session), int(np.sum(vary))
+    if folds > m:  # an empty fold predicts nothing (and its merge failed on an empty array)
+        raise ValidationError(f"{folds} folds for {m} poses: each fold holds a pose; give at most {m}")
     smallest = m - -(-m // folds)  # the smallest training set: all but the largest fold
     if smallest < max(_POSES_PER_QUANTITY * free, 3):
         raise ValidationError(

@@ -155,7 +155,8 @@ def cmd_identify(args: argparse.Namespace) -> None:
     calibration.save(args.out, force=args.force)
     if args.split and setup_paths:
         setup_paths = _split_setup_paths(setup_paths[0], [s.label for s in calibration.sessions])
-    calibration.save_setups(setup_paths, force=args.force)
+    if setup_paths:
+        calibration.save_setups(setup_paths, force=args.force)
     written = [("the report", args.report, text + "\n"), ("the JSON result", args.json, None)]
     written.append(("the HTML report", args.html, None))
     for _, path, body in written:

@@ -8,6 +8,7 @@ plain groups (``frame``, ``tool``, ``targets``) gather every session's.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -26,6 +27,10 @@ def as_sessions(data: Any, model: MeasurementModel | None = None) -> tuple[Sessi
     read by ``model`` (default the full pose in the base frame)."""
     if isinstance(data, Session):
         return (data,)
+    if isinstance(data, str | os.PathLike):
+        raise UsageError(f"{data!r}: give sessions, not a file name (hexcal.read_sessions reads files)")
+    if isinstance(data, Sequence) and len(data) == 0:
+        raise UsageError("no session: give at least one (hexcal.read_sessions reads them from files)")
     if isinstance(data, Sequence) and data and all(isinstance(s, Session) for s in data):
         if model is not None:
             raise UsageError("give the instrument with each session, not as model=")
@@ -35,30 +40,37 @@ def as_sessions(data: Any, model: MeasurementModel | None = None) -> tuple[Sessi
 
 def refuse_repeated_sessions(sessions: Sequence[Session]) -> None:
     """Refuse a session given twice: two sessions with the same observations (the same ids, leg
-    readings and instrument values), :class:`UsageError` naming both. The same poses measured
-    again (another station, another day) are new observations and pass."""
-    seen: list[tuple[int, Session]] = []
+    readings and instrument values, in any row order), :class:`UsageError` naming both. The
+    same poses measured again (another station, another day) are new observations and pass."""
+    seen: list[tuple[int, type, tuple[Any, ...]]] = []
     labels = session_labels(sessions)
     for k, session in enumerate(sessions):
-        inst = session.instrument
-        readings = np.asarray(inst.readings(session.data), dtype=float)
-        values, present = inst.observed(session.data)
-        for j, other in seen:
-            o_inst = other.instrument
+        kind, rows = type(session.instrument), _observations(session)
+        for j, o_kind, o_rows in seen:
             if (
-                type(o_inst) is type(inst)
-                and session.ids == other.ids
-                and np.array_equal(readings, np.asarray(o_inst.readings(other.data), dtype=float))
-                and np.array_equal(present, o_inst.observed(other.data)[1])
-                and np.array_equal(
-                    np.where(present, values, 0.0), np.where(present, o_inst.observed(other.data)[0], 0.0)
-                )
+                kind is o_kind
+                and len(rows[0]) == len(o_rows[0])
+                and all(np.array_equal(a, b) for a, b in zip(rows, o_rows, strict=True))
             ):
                 raise UsageError(
                     f"the same session twice ({labels[j]} and {labels[k]} hold the same observations: ids, "
                     "leg readings and measured values): each session counts once; give it once"
                 )
-        seen.append((k, session))
+        seen.append((k, kind, rows))
+
+
+def _observations(session: Session) -> tuple[Any, ...]:
+    """A session's ids, leg readings, which values are present and the values, its rows in a
+    canonical order (a file's rows reordered hold the same observations)."""
+    inst = session.instrument
+    ids = np.asarray(session.ids, dtype=str)
+    readings = np.asarray(inst.readings(session.data), dtype=float).reshape(len(ids), -1)
+    values, present = inst.observed(session.data)
+    present = np.asarray(present, dtype=bool).reshape(len(ids), -1)
+    values = np.where(present, np.asarray(values, dtype=float).reshape(len(ids), -1), 0.0)
+    keys = np.hstack([readings, present, values])
+    order = np.lexsort((*keys.T[::-1], ids))  # by id, then by the numbers (ids may repeat)
+    return ids[order], readings[order], present[order], values[order]
 
 
 def session_labels(sessions: Sequence[Session]) -> tuple[str, ...]:

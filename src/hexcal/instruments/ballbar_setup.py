@@ -191,7 +191,7 @@ class BallbarSetup:
             tuple(fixed),
             None,
             calibration,
-            noise=declared_noise(data["noise"], "ballbar") if "noise" in data else None,
+            noise=declared_noise(data["noise"], "ballbar", instrument) if "noise" in data else None,
             instrument=instrument,
         )
 

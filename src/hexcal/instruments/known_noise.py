@@ -150,6 +150,12 @@ NOISE_KEYS = {
 }
 
 
+#: A declared σ more than this factor beyond the range of its instrument kind (above the most
+#: such instruments show, below the best) is refused: it is no such instrument (the verdict's
+#: fail for a learned σ, :mod:`hexcal.calibration.noise_judgement`, is the same factor).
+PLAUSIBLE_FACTOR = 10.0
+
+
 def device_for(kind: str, name: str | None = None) -> Device:
     """The instrument kind of a setup (``kind``: targets, tool, ballbar or pose) named ``name``
     (the setup's ``instrument:``; default :data:`DEFAULT_DEVICES`); :class:`InputError` naming
@@ -167,9 +173,11 @@ def device_for(kind: str, name: str | None = None) -> Device:
     return device
 
 
-def declared_noise(value: object, kind: str) -> dict[str, float]:
+def declared_noise(value: object, kind: str, instrument: str | None = None) -> dict[str, float]:
     """A setup's ``noise:`` mapping as σ by noise group (mm, rad); :class:`InputError` naming
-    the problem (a key the setup's kind has no use for, a value that is not a positive number)."""
+    the problem (a key the setup's kind has no use for, a value that is not a positive number,
+    a σ that no instrument of its kind (``instrument``, default by ``kind``) has:
+    :data:`PLAUSIBLE_FACTOR` times beyond its range)."""
     import math
 
     if not isinstance(value, dict) or not value:
@@ -192,6 +200,14 @@ def declared_noise(value: object, kind: str) -> dict[str, float]:
         if group in out:
             raise InputError("noise: give orientation or orientation_deg, not both")
         out[group] = math.radians(number) if key.endswith("_deg") else float(number)
+        span = device_for(kind, instrument).ranges.get(group)
+        if span is not None and not span.low / PLAUSIBLE_FACTOR <= out[group] <= span.high * PLAUSIBLE_FACTOR:
+            device = device_for(kind, instrument)
+            raise InputError(
+                f"noise.{key}: {number:g} {'deg' if key.endswith('_deg') else span.unit} is no noise of "
+                f"{device.label} (they show {span.low:g} ... {span.high:g} {span.unit}, one σ): "
+                f"give one σ in {span.unit}{' (orientation_deg in degrees)' if span.unit == 'rad' else ''}"
+            )
     return out
 
 
@@ -202,4 +218,13 @@ def noise_mapping(noise: dict[str, float], kind: str) -> dict[str, float]:
     return {group: float(sigma) for group, sigma in noise.items()}
 
 
-__all__ = ["DEVICES", "LEG_ENCODERS", "Device", "NoiseRange", "declared_noise", "device_for", "noise_mapping"]
+__all__ = [
+    "DEVICES",
+    "LEG_ENCODERS",
+    "PLAUSIBLE_FACTOR",
+    "Device",
+    "NoiseRange",
+    "declared_noise",
+    "device_for",
+    "noise_mapping",
+]

@@ -345,7 +345,7 @@ class Setup:
         instrument = data.get("instrument")
         if instrument is not None:
             device_for(kind, instrument if isinstance(instrument, str) else repr(instrument))
-        noise = declared_noise(data["noise"], kind) if "noise" in data else None
+        noise = declared_noise(data["noise"], kind, instrument) if "noise" in data else None
         return cls(
             frame, dict(targets or {}), tool, tuple(fixed), euler, calibration, columns, noise, instrument
         )

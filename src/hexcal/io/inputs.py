@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import re
 import stat
 from contextvars import ContextVar
 from typing import IO, Any
@@ -214,6 +215,16 @@ class LimitedSafeLoader(yaml.SafeLoader):
             raise YamlLimitError(
                 f"more than {self.max_nodes:,} values once aliases are expanded (an alias bomb?)", mark
             )
+
+
+# YAML 1.1 (PyYAML) reads ``1e-3``, ``2E5`` and ``1.5e3`` as text: its floats need a dot and a
+# signed exponent. Users write them (a noise ``{position: 1e-3}``); YAML 1.2 reads them as
+# numbers, and so does hexcal.
+LimitedSafeLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+.0123456789"),
+)
 
 
 def load_yaml(path: str | os.PathLike[str], what: str = "YAML") -> Any:

@@ -196,6 +196,20 @@ def _home_pose_radians(pose_deg: Sequence[float]) -> NDArray[np.float64]:
     return pose
 
 
+def _hexcal_angles(ini: IniFile, ini_name: str, key: str, count: int) -> list[float] | None:
+    """The ``count`` angles (degrees) of the ``[TRAJ]`` key ``key`` that hexcal exports, or None
+    when it is absent; :class:`LinuxCNCFormatError` naming the line when it holds another number
+    of values (an edited key is refused, not left out)."""
+    angles = ini.numbers("TRAJ", key)
+    if angles is not None and len(angles) != count:
+        line = ini.get("TRAJ", key)[1]  # type: ignore[index]
+        raise LinuxCNCFormatError(
+            f"{ini_name}: line {line}: [TRAJ] {key}: {len(angles)} value(s), not {count} (degrees), as "
+            "hexcal exports them"
+        )
+    return angles
+
+
 def _own_sequence(
     geometry: Geometry, ini: IniFile, ini_name: str, scale: float, warnings: list[str]
 ) -> Geometry:
@@ -220,16 +234,16 @@ def _own_sequence(
         home[3:] = at_home.as_euler(sequence)
         # the angles written beside HOME, while HOME still says the same orientation (one
         # orientation has two sets of Euler angles: these are the geometry's own)
-        own = ini.numbers("TRAJ", "HEXCAL_HOME_ANGLES")
-        if own is not None and len(own) == 3:
+        own = _hexcal_angles(ini, ini_name, "HEXCAL_HOME_ANGLES", 3)
+        if own is not None:
             angles = np.deg2rad(own)
             if (Rotation.from_euler(sequence, angles) * at_home.inv()).magnitude() < 1e-9:
                 home[3:] = angles
     workspace = None
     if geometry.workspace is not None or ini.number("AXIS_X", "MIN_LIMIT") is not None:
-        angles = ini.numbers("TRAJ", "HEXCAL_WORKSPACE_ANGLES")
+        angles = _hexcal_angles(ini, ini_name, "HEXCAL_WORKSPACE_ANGLES", 6)
         box = [(ini.number(f"AXIS_{a}", "MIN_LIMIT"), ini.number(f"AXIS_{a}", "MAX_LIMIT")) for a in "XYZ"]
-        if angles is None or len(angles) != 6 or any(v is None for pair in box for v in pair):
+        if angles is None or any(v is None for pair in box for v in pair):
             warnings.append(
                 f"{ini_name}: the geometry's sequence is {sequence}, and [AXIS_X..Z] with [TRAJ] "
                 "HEXCAL_WORKSPACE_ANGLES (6 values) do not give its workspace: no workspace box taken"
@@ -237,10 +251,16 @@ def _own_sequence(
         else:
             ranges = np.deg2rad(np.reshape(angles, (3, 2)))
             arr = np.vstack([np.array(box, dtype=float) * scale, ranges])
-            if np.any(arr[:, 0] > arr[:, 1]) or np.any(np.abs(ranges) > np.pi):
+            if np.any(ranges[:, 0] > ranges[:, 1]) or np.any(np.abs(ranges) > np.pi):
+                line = ini.get("TRAJ", "HEXCAL_WORKSPACE_ANGLES")[1]  # type: ignore[index]
+                raise LinuxCNCFormatError(
+                    f"{ini_name}: line {line}: [TRAJ] HEXCAL_WORKSPACE_ANGLES: each range is a minimum "
+                    "then a maximum within ±180 degrees (a_min a_max b_min b_max c_min c_max), as "
+                    "hexcal exports them"
+                )
+            if np.any(arr[:, 0] > arr[:, 1]):
                 warnings.append(
-                    f"{ini_name}: a workspace minimum exceeds its maximum, or an angle range goes "
-                    "beyond ±180 degrees: no workspace taken"
+                    f"{ini_name}: an [AXIS_*] MIN_LIMIT exceeds its MAX_LIMIT: no workspace taken"
                 )
             else:
                 workspace = arr

@@ -111,8 +111,11 @@ def _watch_parent(parent: int) -> None:
 
 
 def resolve_jobs(jobs: int | None) -> int:
-    """Number of processes: ``None`` means all cores, at least 1."""
-    return (os.cpu_count() or 1) if not jobs else max(1, int(jobs))
+    """Number of processes: ``None`` (or 0) means all cores, at least 1 and at most the cores
+    (each is a Python with numpy and scipy, some 100 MB: ``--jobs 1000`` over 1000 chunks
+    started 1000 of them, beyond any memory, for no speed)."""
+    cores = os.cpu_count() or 1
+    return cores if not jobs else max(1, min(int(jobs), cores))
 
 
 def chunk_indices(trials: int, jobs: int = 1, chunk_size: int | None = None) -> list[NDArray[np.intp]]:

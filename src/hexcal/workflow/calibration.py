@@ -184,6 +184,8 @@ class Calibration:
         """The report as text (``fmt="text"``) or strict JSON (``"json"``)."""
         from hexcal.report import render
 
+        if fmt not in ("text", "json"):
+            raise UsageError(f"report: fmt is 'text' or 'json' (html(): the page), got {fmt!r}")
         return render("identification", self.to_dict(), fmt)
 
     def html(self) -> str:
@@ -222,11 +224,16 @@ class Calibration:
         """Write each session's calibrated setup (one path per session, in order)."""
         from hexcal.io import save_setup_dict
 
+        if isinstance(paths, str | os.PathLike) or len(paths) != len(self.sessions):
+            raise UsageError(
+                f"save_setups: one path per session, {len(self.sessions)} in order "
+                f"({', '.join(s.label or '?' for s in self.sessions)}), got {paths!r}"
+            )
         if self.failed and not force:
             raise CalibrationFailed(
                 f"verdict fail: {self.failure()}; nothing written (force writes it anyway)"
             )
-        for path, setup in zip(paths, self.calibrated_setups(), strict=False):
+        for path, setup in zip(paths, self.calibrated_setups(), strict=True):
             save_setup_dict(setup, path)
 
 
@@ -281,6 +288,11 @@ def calibrate(
     **options
         Passed to the estimator.
     """
+    if not isinstance(nominal, Geometry):
+        raise UsageError(f"calibrate: the nominal Geometry (hexcal.load_geometry reads one), not {nominal!r}")
+    if not isinstance(robust, bool | np.bool_):
+        raise UsageError(f"robust must be True or False, got {robust!r}")
+    check_split(split)
     given = list(as_sessions(sessions))
     inputs = dict(inputs or {})
     explicit = () if split in (None, AUTO) else ((split,) if isinstance(split, str) else tuple(split))
@@ -340,7 +352,7 @@ def check_split(split: Any) -> None:
     if split is None or split == AUTO:
         return
     items = (split,) if isinstance(split, str) else split
-    if not all(isinstance(s, str) and s.strip() for s in items):
+    if not isinstance(items, Sequence) or not all(isinstance(s, str) and s.strip() for s in items):
         raise UsageError(f"split must be 'auto' or LABEL:ID texts, got {split!r}")
 
 

@@ -163,6 +163,8 @@ class Validation:
         JSON (``"json"``)."""
         from hexcal.report import render
 
+        if fmt not in ("text", "json"):
+            raise UsageError(f"report: fmt is 'text' or 'json' (html(): the page), got {fmt!r}")
         return render("validation", self.to_dict(), fmt)
 
     def html(self) -> str:
@@ -297,6 +299,12 @@ def validate(
     geometry = getattr(calibrated, "geometry", calibrated)
     if not isinstance(geometry, Geometry):
         raise UsageError(f"validate: a calibrated Geometry or Calibration, not {type(calibrated).__name__}")
+    if nominal is not None and not isinstance(nominal, Geometry):
+        raise UsageError(f"validate: nominal is a Geometry (hexcal.load_geometry reads one), not {nominal!r}")
+    if noise is not None and not isinstance(noise, NoiseModel):
+        raise UsageError(f"validate: noise is a NoiseModel or None (learned from the session), not {noise!r}")
+    if isinstance(seed, bool) or (not isinstance(seed, int) and not hasattr(seed, "__index__")):
+        raise UsageError(f"validate: seed is an integer, not {seed!r}")
     sessions = as_sessions(session)
     if len(sessions) != 1:
         raise UsageError(
