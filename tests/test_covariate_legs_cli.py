@@ -100,3 +100,35 @@ def test_gcode_states_its_temperature_and_refuses_forces(capsys, files):
         capsys, *base, "--geometry", files / "load.yaml", "--temperature", 30, "--payload", 5
     )
     assert status == 1 and "axial forces change along the path" in err
+
+
+def test_synthesize_takes_one_temperature_and_states_it(capsys, files):
+    """``synthesize --temperature``: the true thermal machine's legs at 30 °C (each leg's
+    reading kt · 10 K shorter than on the cold machine, poses the same), the file's ``temp``
+    column and its comment say so; a file with the column refuses the option in one line."""
+    argv = ("synthesize", "--nominal", files / "paper.yaml", "--poses", files / "poses.csv",
+            "--noise", "leg=0,pos=0,ang=0")  # fmt: skip
+    status, out, _ = run(
+        capsys, *argv, "--true", files / "warm.yaml", "--temperature", 30, "--out", files / "w.csv"
+    )
+    assert status == 0 and "(legs at 30 °C)" in out
+    assert "legs at 30 °C" in (files / "w.csv").read_text().splitlines()[0]
+    warm = read_legs(files / "w.csv")
+    np.testing.assert_array_equal(warm.covariates.temperatures, 30.0)
+    status, _, _ = run(capsys, *argv, "--true", files / "paper.yaml", "--out", files / "c.csv")
+    # the same commanded readings; the warm legs kt * 10 K longer: the poses they reach have
+    # those lengths on the nominal geometry
+    from hexcal.core.kinematics import inverse_kinematics
+    from hexcal.io import read_measurements
+
+    nominal = preset("paper-hmt")
+    reached = [read_measurements(files / f, nominal.euler).poses for f in ("w.csv", "c.csv")]
+    grown = inverse_kinematics(nominal, reached[0]) - inverse_kinematics(nominal, reached[1])
+    np.testing.assert_allclose(grown, np.tile(KT, (2, 1)) * 10, atol=1e-7)
+    (files / "t.csv").write_text("id,x,y,z,a,b,c,temp\nmid,0,0,800,0,0,0,21\n")
+    status, _, err = run(
+        capsys, *argv[:-2], "--true", files / "warm.yaml", "--poses", files / "t.csv", "--temperature", 30,
+        "--out", files / "o.csv",
+    )  # fmt: skip
+    assert status == 1 and "carries the legs' temperatures" in err and len(err.strip().splitlines()) == 1
+    assert not (files / "o.csv").exists()

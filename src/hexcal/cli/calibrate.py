@@ -22,6 +22,7 @@ from hexcal.cli.common import (
     GEOMETRY_HELP,
     CommandError,
     check_outputs,
+    condition_options,
     inputs_record,
     load_geometry,
     show_defaults,
@@ -242,6 +243,7 @@ def _numbered(label: str, paths: list[str] | None) -> dict[str, str]:
 
 def cmd_synthesize(args: argparse.Namespace) -> None:
     """A simulated data file of a known machine (and instrument setup)."""
+    from hexcal.instruments import conditions_text, with_conditions
     from hexcal.io import load_instrument, read_poses, write_session_data
     from hexcal.simulation import simulate_session
 
@@ -252,6 +254,7 @@ def cmd_synthesize(args: argparse.Namespace) -> None:
     if instrument.unregistered:
         raise CommandError(f"{args.setup}: simulation needs the true instrument frame, not auto")
     poses, ids, covariates = read_poses(args.poses, nominal.euler, **table_reading(args), covariates=True)
+    covariates = with_conditions(covariates, len(poses), args.temperature, args.payload, args.poses)
     noise = parse_noise(args.noise, args.noise_dist)
     options = {"missing_rate": args.missing_rate} if args.missing_rate else {}
     session = simulate_session(
@@ -260,8 +263,13 @@ def cmd_synthesize(args: argparse.Namespace) -> None:
     comment = f"simulated: nominal {args.nominal}, true {args.true}, seed {args.seed}, noise {noise}"
     comment += "".join(f", {label} {value}" for label, value in _given(setup=args.setup).items())
     comment += f", missing rate {args.missing_rate:g}" if args.missing_rate else ""
+    said = conditions_text(covariates) if covariates else None
+    comment += f", {said}" if said else ""
     write_session_data(args.out, session, nominal.euler, args.orientation, comment)
-    print(f"wrote {len(session)} simulated observation(s) of {instrument.describe()} to {args.out}")
+    print(
+        f"wrote {len(session)} simulated observation(s) of {instrument.describe()} to {args.out}"
+        + (f" ({said})" if said else "")
+    )
 
 
 def register(sub: Any) -> None:
@@ -426,6 +434,7 @@ def register(sub: Any) -> None:
     p.add_argument("--setup", metavar="FILE", help="true instrument setup YAML: write what it records")
     p.add_argument("--missing-rate", type=float, default=0.0, help="with --setup: share of lost targets")
     table_options(p, "--poses")
+    condition_options(p)
     p.set_defaults(
         func=cmd_synthesize, inputs=("nominal", "true", "poses", "setup"), outputs=("out",), folders=()
     )

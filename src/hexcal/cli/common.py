@@ -262,8 +262,10 @@ def candidate_files(spec: str) -> list[str]:
     return [t for t in tokens if t.partition(":")[0] not in CANDIDATE_PREFIXES]
 
 
-def candidate_spec(spec: str, geometry: Any, seed: int) -> tuple[Any, list[str]]:
-    """Candidate poses and ids of a spec like ``corners+grid:3+random:1000+file.csv``."""
+def candidate_spec(spec: str, geometry: Any, seed: int, covariates: bool = False) -> Any:
+    """Candidate poses and ids of a spec like ``corners+grid:3+random:1000+file.csv``; with
+    ``covariates``, also their conditions (:class:`hexcal.instruments.Covariates`, or None
+    unless every part is a file with the same covariate columns)."""
     from pathlib import Path
 
     import numpy as np
@@ -275,25 +277,37 @@ def candidate_spec(spec: str, geometry: Any, seed: int) -> tuple[Any, list[str]]
         raise CommandError("--candidates: empty; give corners, grid[:L], edges[:L], random:N or a file")
     rng = np.random.default_rng(seed)
     parts = []
+    conditions = []
     ids: list[str] = []
     for token in tokens:
         if token.partition(":")[0] in CANDIDATE_PREFIXES:
             poses, new_ids = _candidate_kind(token, geometry, rng)
             ids += new_ids
+            conditions.append(None)
         else:
             if not Path(token).exists():
                 raise CommandError(
                     f"--candidates: {token!r} is neither corners, grid[:L], edges[:L], random:N nor a file"
                 )
-            poses, file_ids = read_poses(token, geometry.euler)
+            poses, file_ids, found = read_poses(token, geometry.euler, covariates=True)
             ids += list(file_ids)
+            conditions.append(found.to_columns() if found else None)
         parts.append(poses)
     seen: set[str] = set()
     for i in ids:
         if i in seen:
             raise CommandError(f"--candidates: pose id {i!r} appears twice; give the files distinct ids")
         seen.add(i)
-    return np.concatenate(parts), ids
+    if not covariates:
+        return np.concatenate(parts), ids
+    joined = None
+    if all(c is not None for c in conditions) and len({tuple(c) for c in conditions}) == 1:
+        from hexcal.instruments import Covariates
+
+        joined = Covariates.from_columns(
+            {k: np.concatenate([c[k] for c in conditions]) for k in conditions[0]}
+        )
+    return np.concatenate(parts), ids, joined
 
 
 def feasible_candidates(

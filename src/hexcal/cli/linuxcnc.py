@@ -1,7 +1,8 @@
 """LinuxCNC subcommands of ``hexcal``: ``export linuxcnc`` and ``import linuxcnc``.
 
 - ``hexcal export linuxcnc --geometry G --out DIR`` writes ``DIR/hexcal-kins.hal`` and
-  ``DIR/hexcal-joints.ini`` (both or neither);
+  ``DIR/hexcal-joints.ini``, with the compensation tables of a stroke leg model and the run-time
+  ``hexcal-thermal.hal`` of a thermal one (all or none);
 - ``hexcal import linuxcnc --hal FILE [--ini FILE] --out G.yaml`` writes a geometry of
   the machine a LinuxCNC configuration describes.
 
@@ -26,6 +27,8 @@ from hexcal.cli.common import GEOMETRY_HELP, CommandError
 EXPORT_FILES = ("hexcal-kins.hal", "hexcal-joints.ini")
 #: The joint compensation tables of a stroke leg model (``hexcal.io.linuxcnc_comp.COMP_FILES``).
 COMP_FILES = tuple(f"hexcal-comp-{n}.tbl" for n in range(6))
+#: The run-time file of a thermal leg model (``hexcal.io.linuxcnc_thermal.THERMAL_HAL_FILE``).
+THERMAL_FILE = "hexcal-thermal.hal"
 
 
 def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
@@ -36,15 +39,21 @@ def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
     p.add_argument(
         "--out",
         required=True,
-        help="folder for hexcal-kins.hal and hexcal-joints.ini, and hexcal-comp-0..5.tbl for a stroke "
-        "leg model (created if missing)",
+        help="folder for hexcal-kins.hal and hexcal-joints.ini, hexcal-comp-0..5.tbl for a stroke "
+        "leg model and hexcal-thermal.hal for a thermal one (created if missing)",
+    )
+    p.add_argument(
+        "--shared-sensor",
+        action="store_true",
+        help="a thermal leg model: one temperature sensor for every leg (signal hexcal-temp) instead of "
+        "one per leg (hexcal-temp-0..5)",
     )
     p.set_defaults(
         func=cmd_export,
         inputs=("geometry",),
         outputs=(),
         folders=("out",),
-        folder_files={"out": EXPORT_FILES + COMP_FILES},
+        folder_files={"out": (*EXPORT_FILES, *COMP_FILES, THERMAL_FILE)},
     )
 
     p = sub.add_parser("import", help="a geometry from a controller's configuration (LinuxCNC genhexkins)")
@@ -107,7 +116,9 @@ def cmd_export(args: argparse.Namespace) -> None:
         sha256 = hashlib.sha256(data).hexdigest()
         mtime = datetime.datetime.fromtimestamp(path.stat().st_mtime, tz=datetime.UTC)
         source, date = str(path), mtime.strftime("%Y-%m-%dT%H:%M:%SZ")
-    files = export_linuxcnc(geometry, source=source, source_sha256=sha256, source_date=date)
+    files = export_linuxcnc(
+        geometry, source=source, source_sha256=sha256, source_date=date, shared_sensor=args.shared_sensor
+    )
     folder = Path(args.out)
     for name, text in files.items():
         write_text(folder / name, text)
@@ -127,6 +138,14 @@ def cmd_export(args: argparse.Namespace) -> None:
         line = beyond.warning("poses of the workspace box (its corners and random poses)") if beyond else None
         if line:
             _warn(f"{line}; the tables hold their end trims there, as the model holds its curve")
+    if THERMAL_FILE in files:
+        sensors = "hexcal-temp" if args.shared_sensor else "hexcal-temp-0 .. hexcal-temp-5"
+        print(
+            f"thermal legs: load {THERMAL_FILE} after the machine's HAL file "
+            f"([HAL] HALFILE = {THERMAL_FILE}); "
+            f"drive {sensors} from the legs' temperature sensors (°C) and name the drives' signals "
+            "hexcal-drive-cmd-N and hexcal-drive-fb-N (its header says how)"
+        )
 
 
 def _parse_home(text: str) -> list[float]:

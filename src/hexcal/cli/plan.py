@@ -170,7 +170,7 @@ def cmd_observability(args: argparse.Namespace) -> None:
     method = choice(args.method, ("ml", "length", "paper"), "--method")
     mask = fit_mask(args.fit, geometry=geometry)
     noise = _noise(args)
-    poses, ids = read_poses(args.poses, geometry.euler, **table_reading(args))
+    poses, ids, conditions = read_poses(args.poses, geometry.euler, covariates=True, **table_reading(args))
     if args.test_poses:
         test, _ = read_poses(args.test_poses, geometry.euler)
     elif geometry.workspace is not None:
@@ -179,7 +179,17 @@ def cmd_observability(args: argparse.Namespace) -> None:
         test = None
     try:
         analysis = analyse_poses(
-            geometry, poses, noise, mask, test, scaling, method, args.weighted, instrument, args.fix or ()
+            geometry,
+            poses,
+            noise,
+            mask,
+            test,
+            scaling,
+            method,
+            args.weighted,
+            instrument,
+            args.fix or (),
+            conditions or None,
         )
     except np.linalg.LinAlgError as exc:
         raise CommandError(f"{args.poses}: cannot analyse these poses ({exc})") from None
@@ -250,10 +260,13 @@ def cmd_select(args: argparse.Namespace) -> None:
     mask = fit_mask(args.fit, geometry=geometry)
     noise = _noise(args)
     n = args.n
-    candidates = kept = warning = None
+    candidates = kept = warning = conditions = None
     if strategy == "optimal":
-        poses, cand_ids = candidate_spec(args.candidates, geometry, args.seed)
+        poses, cand_ids, conditions = candidate_spec(args.candidates, geometry, args.seed, covariates=True)
         candidates, kept, warning = feasible_candidates(geometry, poses, cand_ids, args.min_distance)
+        if conditions is not None:  # the feasible candidates' own
+            row = {label: k for k, label in enumerate(cand_ids)}
+            conditions = conditions.subset([row[label] for label in kept])
         if n > len(kept):
             dropped = f" ({len(cand_ids) - len(kept)} infeasible left out)" if warning else ""
             raise CommandError(f"--n {n}: only {len(kept)} feasible candidate pose(s){dropped}")
@@ -273,12 +286,19 @@ def cmd_select(args: argparse.Namespace) -> None:
         seed=args.seed,
         instrument=instrument,
         fix=args.fix or (),
+        candidate_covariates=conditions,
     )
     data = selection.to_dict()
     print(render("select", data))
     if warning:
         warn(warning)
-    write_poses(args.out, selection.poses, selection.ids, comment=f"hexcal select: {selection.label}")
+    write_poses(
+        args.out,
+        selection.poses,
+        selection.ids,
+        comment=f"hexcal select: {selection.label}",
+        covariates=selection.covariates,
+    )
     if args.json:
         with atomic_write(args.json) as fh:
             fh.write(render("select", data, "json"))

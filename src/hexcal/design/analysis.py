@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from hexcal.calibration.accuracy import pose_error_map, predicted_pose_errors
 from hexcal.core import PARAMETER_SCALE, Geometry, NoiseModel, as_poses, parameter_names
 from hexcal.design.accuracy import least_squares_covariance, length_mean_abs
+from hexcal.design.condition_coverage import ConditionCoverage, condition_coverage
 from hexcal.design.identifiability import as_mask, format_combination, null_space, planning_jacobian
 from hexcal.design.indices import SCALINGS, ObservabilityIndices, observability_indices
 from hexcal.design.stroke_coverage import StrokeCoverage, stroke_coverage
@@ -64,6 +65,10 @@ class PoseSetAnalysis:
     stroke : StrokeCoverage, optional
         For a leg model with a curve of the stroke: how much of each leg's stroke the poses'
         readings cover (:func:`hexcal.design.stroke_coverage.stroke_coverage`).
+    conditions : ConditionCoverage, optional
+        For a leg model that reads the conditions: how much the poses' temperatures and axial
+        forces vary, and whether its terms are determined
+        (:func:`hexcal.design.condition_coverage.condition_coverage`).
     """
 
     names: tuple[str, ...]
@@ -84,6 +89,7 @@ class PoseSetAnalysis:
     gauges: tuple[str, ...] = ()
     n_machine: int | None = None
     stroke: StrokeCoverage | None = None
+    conditions: ConditionCoverage | None = None
 
     @property
     def rank(self) -> int:
@@ -135,6 +141,8 @@ class PoseSetAnalysis:
         }
         if self.stroke is not None:
             out["stroke_coverage"] = self.stroke.to_dict()
+        if self.conditions is not None:
+            out["condition_coverage"] = self.conditions.to_dict()
         pos, rot = self.test_position_rms, self.test_orientation_rms
         if pos.size:
             out["test_poses"] = {
@@ -160,6 +168,7 @@ def analyse_poses(
     weighted: bool = False,
     instrument: MeasurementModel | None = None,
     fix: Any = (),
+    covariates: Any = None,
 ) -> PoseSetAnalysis:
     """Observability indices, identifiability and predicted accuracy of a pose set.
 
@@ -191,6 +200,10 @@ def analyse_poses(
         weighted.
     fix : sequence of str
         Parameters or groups to hold (instrument quantities: ``frame``...).
+    covariates : Covariates, optional
+        The conditions of the poses (the legs' temperatures, the payload), for a leg model
+        that reads them: the analysis then says whether they vary enough to determine its
+        terms (:func:`hexcal.design.condition_coverage.condition_coverage`).
 
     Returns
     -------
@@ -216,7 +229,7 @@ def analyse_poses(
     through_problem = planned_instrument(geometry, instrument)
     if through_problem is not None:
         return analyse_instrument(
-            geometry, through_problem, poses, noise, mask, test_poses, method, scaling, fix
+            geometry, through_problem, poses, noise, mask, test_poses, method, scaling, fix, covariates
         )
     mask = as_mask(mask)
     poses = as_poses(poses).reshape(-1, 6)
@@ -276,6 +289,7 @@ def analyse_instrument(
     method: str = "ml",
     scaling: str = "norm",
     fix: Any = (),
+    covariates: Any = None,
 ) -> PoseSetAnalysis:
     """:func:`analyse_poses` of an instrument that does not give the pose by itself.
 
@@ -300,7 +314,7 @@ def analyse_instrument(
         raise UsageError(f"method {method!r}: {why}; only the maximum-likelihood estimate (ml) applies")
     machine = np.asarray(as_mask(mask), dtype=bool)
     flags = default_flags(geometry) if mask is None else machine
-    problem = plan_problem(geometry, instrument, poses, fix=fix, mask=flags)
+    problem = plan_problem(geometry, instrument, poses, fix=fix, mask=flags, covariates=covariates)
     jac = projected_jacobian(problem, noise)
     gauge = gauge_freedoms(problem, problem.full0)
     basis = complement_basis(gauge)
@@ -357,4 +371,5 @@ def analyse_instrument(
         gauges=gauge.labels,
         n_machine=int(rows.sum()),
         stroke=stroke_coverage(geometry, poses),
+        conditions=condition_coverage(geometry, poses, covariates, names, not_identifiable),
     )

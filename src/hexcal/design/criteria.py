@@ -53,8 +53,10 @@ def information_blocks(
     mask: ArrayLike | None = None,
     instrument: Any = None,
     fix: Any = (),
+    covariates: Any = None,
 ) -> NDArray[np.float64]:
-    """Per-pose noise-whitened identification Jacobians ``B_j``, shape (m, 6, n).
+    """Per-pose noise-whitened identification Jacobians ``B_j``, shape (m, 6, n); under the
+    poses' ``covariates`` (a leg model that reads them).
 
     Columns are the selected parameters in units of their characteristic scale
     (:data:`hexcal.core.PARAMETER_SCALE`: 1 mm for joints and ``l0``, 1e-3 for
@@ -71,14 +73,20 @@ def information_blocks(
     poses = np.asarray(poses, dtype=float).reshape(-1, 6)
     through_problem = planned_instrument(geometry, instrument)
     if through_problem is not None:
-        return instrument_blocks(geometry, through_problem, poses, noise, mask, fix)
+        return instrument_blocks(geometry, through_problem, poses, noise, mask, fix, covariates)
     mask = select_parameters() if mask is None else np.asarray(mask, dtype=bool)
     wa = whitened_jacobian(geometry, poses, noise, mask)
     return wa.reshape(poses.shape[0], 6, -1) * PARAMETER_SCALE[mask]
 
 
 def instrument_blocks(
-    geometry: Geometry, instrument: Any, poses: ArrayLike, noise: NoiseModel | None, mask: Any, fix: Any = ()
+    geometry: Geometry,
+    instrument: Any,
+    poses: ArrayLike,
+    noise: NoiseModel | None,
+    mask: Any,
+    fix: Any = (),
+    covariates: Any = None,
 ) -> NDArray[np.float64]:
     """Per-candidate information rows ``B_j`` of an instrument that does not give the pose:
     the pose-eliminated, noise-whitened rows (:func:`hexcal.estimation.information_rows`) in
@@ -87,7 +95,7 @@ def instrument_blocks(
     from hexcal.design.instrument_table import plan_problem
     from hexcal.estimation import complement_basis, gauge_freedoms, information_rows
 
-    problem = plan_problem(geometry, instrument, poses, fix=fix, mask=mask)
+    problem = plan_problem(geometry, instrument, poses, fix=fix, mask=mask, covariates=covariates)
     rows = information_rows(problem, NoiseModel() if noise is None else noise)[0]
     return rows @ complement_basis(gauge_freedoms(problem, problem.full0))
 

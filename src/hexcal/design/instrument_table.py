@@ -65,14 +65,17 @@ def plan_problem(
     fit: str | None = None,
     fix: Any = (),
     mask: ArrayLike | None = None,
+    covariates: Any = None,
 ) -> Problem:
     """The noise-free problem of ``instrument`` at ``poses`` (an unknown frame stands at its
-    start: ranks and isotropic bounds do not depend on where the instrument stands)."""
+    start: ranks and isotropic bounds do not depend on where the instrument stands), under
+    the poses' ``covariates`` for a leg model that reads them."""
     if instrument.unregistered:
         instrument = instrument.with_values(instrument.parameters().values)
     if mask is None and fit is None:
         mask = default_flags(geometry)
-    return Problem(geometry, planned_session(geometry, instrument, poses), mask=mask, fit=fit, fix=fix)
+    session = planned_session(geometry, instrument, poses, covariates)
+    return Problem(geometry, session, mask=mask, fit=fit, fix=fix)
 
 
 def instrument_plan(

@@ -100,6 +100,7 @@ def predicted_error(
     mask: ArrayLike | None = None,
     instrument: Any = None,
     fix: Any = (),
+    covariates: Any = None,
 ) -> tuple[float, float]:
     """Mean over pose sets of the predicted mean absolute parameter error (mm).
 
@@ -111,6 +112,8 @@ def predicted_error(
     noise : NoiseModel
     mask : array_like of bool, shape (48,), optional
         Parameters identified (default: joints and l0).
+    covariates : Covariates, optional
+        The conditions of every set's ``n`` poses (a leg model that reads them).
 
     Returns
     -------
@@ -133,7 +136,15 @@ def predicted_error(
     if planned_instrument(geometry, instrument) is not None:
         errors = [
             analyse_poses(
-                geometry, s, noise, mask, method="ml", weighted=True, instrument=instrument, fix=fix
+                geometry,
+                s,
+                noise,
+                mask,
+                method="ml",
+                weighted=True,
+                instrument=instrument,
+                fix=fix,
+                covariates=covariates,
             ).mean_error_bound
             for s in sets
         ]
@@ -156,6 +167,7 @@ class StrategyComparison:
     rows: dict[str, tuple[float, float]]
     descriptions: dict[str, str] = field(default_factory=dict)
     stroke: dict[str, Any] | None = None
+    conditions: dict[str, Any] | None = None
 
     @property
     def gain(self) -> float | None:
@@ -169,14 +181,18 @@ class StrategyComparison:
         ``identify``'s default estimator, maximum likelihood (``estimator``: its covariance is
         the Cramér–Rao ``bound``), with the unweighted least squares under ``length``; and
         ``comparisons`` (the descriptions)."""
-        return {
-            "predicted_mean_abs_error_mm": {
-                key: {"estimator": bound, "bound": bound, "length": est}
-                for key, (est, bound) in self.rows.items()
-            },
-            "comparisons": dict(self.descriptions),
-            "method": "ml",
-        } | ({"stroke_coverage": self.stroke} if self.stroke is not None else {})
+        return (
+            {
+                "predicted_mean_abs_error_mm": {
+                    key: {"estimator": bound, "bound": bound, "length": est}
+                    for key, (est, bound) in self.rows.items()
+                },
+                "comparisons": dict(self.descriptions),
+                "method": "ml",
+            }
+            | ({"stroke_coverage": self.stroke} if self.stroke is not None else {})
+            | ({"condition_coverage": self.conditions} if self.conditions is not None else {})
+        )
 
 
 def compare_strategies(
@@ -189,6 +205,7 @@ def compare_strategies(
     draws: int = COMPARISON_DRAWS,
     instrument: Any = None,
     fix: Any = (),
+    covariates: Any = None,
 ) -> StrategyComparison:
     """Predicted accuracy of ``poses`` beside the seed paper's strategy and random interior poses.
 
@@ -212,6 +229,9 @@ def compare_strategies(
         compared by its maximum-likelihood bound.
     fix : sequence of str
         Parameters or groups held (an instrument's quantities).
+    covariates : Covariates, optional
+        The conditions of ``poses`` (a leg model that reads them); the compared pose sets are
+        taken under the same conditions, pose by pose.
 
     Raises
     ------
@@ -234,7 +254,7 @@ def compare_strategies(
 
     quiet = planned_instrument(geometry, instrument) is not None
     options = {"method": "ml", "weighted": True, "instrument": instrument, "fix": fix} if quiet else {}
-    analysis = analyse_poses(geometry, poses, noise, mask, **options)
+    analysis = analyse_poses(geometry, poses, noise, mask, covariates=covariates, **options)
     if analysis.unidentifiable:
         lost = analysis.unidentifiable
         beyond = f" beyond the {len(analysis.gauges)} gauge freedoms" if analysis.gauges else ""
@@ -247,14 +267,15 @@ def compare_strategies(
     descriptions: dict[str, str] = {}
     if corners is not None and n <= len(corners):
         sets = corners[random_subsets(len(corners), n, draws, rng)]
-        rows["paper"] = predicted_error(geometry, sets, noise, mask, instrument, fix)
+        rows["paper"] = predicted_error(geometry, sets, noise, mask, instrument, fix, covariates)
         descriptions["paper"] = f"{n} random corners (the seed paper), mean of {draws} draws"
     if geometry.workspace is not None:
         interior = random_interior(geometry.workspace, draws * n, rng).reshape(-1, n, 6)
-        rows["interior"] = predicted_error(geometry, interior, noise, mask, instrument, fix)
+        rows["interior"] = predicted_error(geometry, interior, noise, mask, instrument, fix, covariates)
         descriptions["interior"] = f"{n} random interior poses, mean of {draws} draws"
     stroke = analysis.stroke.to_dict() if analysis.stroke is not None else None
-    return StrategyComparison(n, rows, descriptions, stroke)
+    conditions = analysis.conditions.to_dict() if analysis.conditions is not None else None
+    return StrategyComparison(n, rows, descriptions, stroke, conditions)
 
 
 @dataclass
@@ -265,7 +286,8 @@ class PoseSelection:
     by ``criterion`` from the ``candidates`` spec) or ``paper`` (random feasible corners;
     ``selection`` None). ``poses`` (n, 6) in mm and rad, ``ids`` their names, ``label``
     says what was selected, ``seconds`` the time of the selection; ``noise`` the measurement
-    noise the selection and its predictions assumed, ``instrument`` what measures.
+    noise the selection and its predictions assumed, ``instrument`` what measures;
+    ``covariates`` the selected poses' conditions (from the candidates'), or None.
     """
 
     strategy: str
@@ -281,6 +303,7 @@ class PoseSelection:
     candidates: str = "corners"
     noise: NoiseModel | None = None
     instrument: str = "full pose in the base frame"
+    covariates: Any = None
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python form: the keys of ``hexcal select --json`` (in order), then ``comparisons``,
@@ -340,6 +363,7 @@ def plan_selection(
     seed: int = 0,
     instrument: Any = None,
     fix: Any = (),
+    candidate_covariates: Any = None,
 ) -> PoseSelection:
     """Measurement poses by a strategy, with their predicted accuracy beside the others.
 
@@ -347,7 +371,10 @@ def plan_selection(
     (greedy and exchange on the per-pose information of ``instrument``, default the full
     pose); ``paper``: ``n`` random feasible corners (the seed paper's strategy). The
     comparison (:func:`compare_strategies`) is for the same instrument. ``spec`` and ``seed``
-    only describe the selection.
+    only describe the selection. ``candidate_covariates`` are the candidates' conditions (the
+    legs' temperatures, the payload), for a leg model that reads them: the selection weighs
+    each candidate under its own, and says whether the selected poses' conditions vary enough
+    to determine the model's terms.
 
     Raises
     ------
@@ -369,7 +396,7 @@ def plan_selection(
     rng = np.random.default_rng(rng)
     corners, corner_ids = feasible_corners(geometry, min_distance)
     start = time.perf_counter()
-    result = None
+    result = conditions = None
     if strategy == "paper":
         if corners is None:
             raise SelectionError("the paper's strategy needs a geometry with a workspace box")
@@ -384,16 +411,18 @@ def plan_selection(
         if candidates is None or len(candidates) < n:
             have = 0 if candidates is None else len(candidates)
             raise SelectionError(f"{n} poses: only {have} feasible candidate pose(s)")
-        blocks = information_blocks(geometry, candidates, noise, mask, instrument, fix)
+        blocks = information_blocks(geometry, candidates, noise, mask, instrument, fix, candidate_covariates)
         result = select_poses(blocks, n, criterion, rng, exchange=exchange)
         kept = candidate_ids or [str(k) for k in range(len(candidates))]
         poses, ids = candidates[result.indices], [kept[k] for k in result.indices]
+        if candidate_covariates:
+            conditions = candidate_covariates.subset(result.indices)
         label = f"{criterion}-optimal from {len(kept)} feasible candidates ({spec}), seed {seed}"
     else:
         raise SelectionError(f"unknown strategy {strategy!r}; choose from optimal, paper")
     seconds = time.perf_counter() - start
     comparison = compare_strategies(
-        geometry, poses, noise, mask, rng, corners, instrument=instrument, fix=fix
+        geometry, poses, noise, mask, rng, corners, instrument=instrument, fix=fix, covariates=conditions
     )
     return PoseSelection(
         strategy,
@@ -409,4 +438,5 @@ def plan_selection(
         candidates=spec,
         noise=noise,
         instrument="full pose in the base frame" if instrument is None else instrument.describe(),
+        covariates=conditions,
     )

@@ -49,13 +49,29 @@ def planned_measurements(geometry: Geometry, poses: ArrayLike) -> Measurements:
     return Measurements(poses, leg_readings(geometry, inverse_kinematics(geometry, poses)))
 
 
-def planned_session(geometry: Geometry, instrument: MeasurementModel, poses: ArrayLike) -> Session:
+def planned_session(
+    geometry: Geometry, instrument: MeasurementModel, poses: ArrayLike, covariates: Any = None
+) -> Session:
     """The noise-free session an instrument records at poses ``geometry`` reaches exactly
-    (planning: the machine is the nominal one; an unknown frame at its start value)."""
+    (planning: the machine is the nominal one; an unknown frame at its start value).
+
+    ``covariates`` (:class:`hexcal.instruments.Covariates` of the poses, in order) are the
+    conditions the poses are planned under, for a leg model that reads them (its readings
+    there, and the data carry them); such a model without them is one line naming what it
+    needs."""
+    from hexcal.core.covariate_legs import geometry_inputs
+    from hexcal.instruments.covariates import NO_COVARIATES
+
     poses = np.asarray(poses, dtype=float).reshape(-1, 6)
-    readings = leg_readings(geometry, inverse_kinematics(geometry, poses))
+    if geometry.leg_model.covariates:
+        covariates = NO_COVARIATES if covariates is None else covariates
+    inputs = geometry_inputs(geometry, covariates, poses, "the planned poses")
+    readings = leg_readings(geometry, inverse_kinematics(geometry, poses), inputs)
     setup = instrument.parameters().values
-    data = instrument.simulate(setup, poses, readings, geometry.euler, None, np.random.default_rng(0))
+    ids = tuple(str(k + 1) for k in range(len(poses)))
+    data = instrument.simulate(setup, poses, readings, geometry.euler, None, np.random.default_rng(0), ids)
+    if covariates:  # the rows recorded, by their ids
+        data = data.replace(covariates=covariates.subset([int(i) - 1 for i in instrument.ids(data)]))
     return Session(data, instrument)
 
 

@@ -43,9 +43,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.core.geometry import Geometry
-from hexcal.core.text import printable as _printable
 from hexcal.errors import InputError
 from hexcal.errors import LinuxCNCFormatError as LinuxCNCFormatError  # re-exported: its home before
+from hexcal.io.hal_text import MAX_LINE_BYTES as MAX_LINE_BYTES  # re-exported: their home before
+from hexcal.io.hal_text import MAX_VALUE_CHARS as MAX_VALUE_CHARS
+from hexcal.io.hal_text import NUMBER as NUMBER
+from hexcal.io.hal_text import comment_line as comment_line
+from hexcal.io.hal_text import comment_ok as comment_ok
+from hexcal.io.hal_text import printable as printable
 
 #: File names written by :func:`export_linuxcnc`.
 HAL_FILE = "hexcal-kins.hal"
@@ -78,18 +83,6 @@ GENHEXKINS_DEFAULT_PLATFORM = np.array(
 )
 
 
-#: A number as C's ``strtod`` reads it (no hex, inf or nan): the only values written.
-NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
-
-#: Longest comment line written, in bytes (UTF-8). LinuxCNC's INI reader reads a line of
-#: 255 bytes or more in pieces, each parsed as a line of its own (measured with LinuxCNC
-#: 2.9's ``inivar``: ``#`` and 254 characters, then ``K = 1`` on the same line, sets ``K``);
-#: ``halcmd`` refuses a line of about 1000 bytes.
-MAX_LINE_BYTES = 200
-
-#: Characters of one input value (a name, a path, a calibration field) in a comment.
-MAX_VALUE_CHARS = 80
-
 _HAL_LINE = re.compile(r"setp genhexkins\.(base|platform)\.[0-5]\.[xyz] (?P<v>\S+)")
 _INI_SECTION = re.compile(r"\[(TRAJ|JOINT_[0-5]|AXIS_[XYZABC])\]")
 _INI_WORDS = {"LINEAR_UNITS = mm", "ANGULAR_UNITS = degree", "COMP_FILE_TYPE = 1"} | {
@@ -114,39 +107,6 @@ def ini_name_word(name: str) -> str:
     'paper_hmt__2'
     """
     return _NAME_UNSAFE.sub("_", str(name))[:MAX_VALUE_CHARS]
-
-
-def printable(value: object, most: int = MAX_VALUE_CHARS) -> str:
-    """``str(value)`` one line and printable (:func:`hexcal.core.text.printable`), cut to ``most``.
-
-    >>> printable("m1\\nloadusr -w touch x")
-    'm1\\\\x0aloadusr -w touch x'
-    """
-    return _printable(value, most)
-
-
-def comment_line(text: str) -> str:
-    """``# text`` as one safe comment line of a HAL or INI file (see the module's notes).
-
-    >>> comment_line("name a\\\\")
-    '# name a\\\\x5c'
-    """
-    line = "# " + printable(text, most=MAX_LINE_BYTES)
-    if line.endswith("\\"):  # halcmd and the INI reader would join the next line to it
-        line = line[:-1] + "\\x5c"
-    while len(line.encode("utf-8")) > MAX_LINE_BYTES:  # printable non-ASCII: several bytes each
-        line = line[:-4] + "..."
-    return line
-
-
-def comment_ok(line: str) -> bool:
-    """Whether ``line`` is a comment as :func:`comment_line` writes it (one safe line)."""
-    return (
-        line.startswith("#")
-        and line.isprintable()
-        and not line.endswith("\\")
-        and len(line.encode("utf-8")) <= MAX_LINE_BYTES
-    )
 
 
 def check_export_lines(name: str, text: str) -> None:
@@ -230,6 +190,7 @@ def export_linuxcnc(
     source: str = "(in memory)",
     source_sha256: str | None = None,
     source_date: str | None = None,
+    shared_sensor: bool = False,
 ) -> dict[str, str]:
     """The ``genhexkins`` HAL file and the per-joint INI values of a geometry.
 
@@ -243,11 +204,15 @@ def export_linuxcnc(
     source_date : str, optional
         The geometry file's modification time, given as the calibration date when the
         geometry's ``calibration`` has no ``date``.
+    shared_sensor : bool
+        For a thermal leg model: one temperature signal for every leg (``hexcal-temp``)
+        instead of one per leg.
 
     Returns
     -------
     dict of str to str
-        ``{"hexcal-kins.hal": ..., "hexcal-joints.ini": ...}``.
+        ``{"hexcal-kins.hal": ..., "hexcal-joints.ini": ...}``, the compensation tables of a
+        stroke model and ``hexcal-thermal.hal`` of a thermal one.
 
     Notes
     -----
@@ -261,8 +226,17 @@ def export_linuxcnc(
     (``stroke``) adds, per joint, a compensation table (``COMP_FILE``, ``COMP_FILE_TYPE = 1``:
     :mod:`hexcal.io.linuxcnc_comp`), returned as ``hexcal-comp-N.tbl``, and its
     ``HOME_OFFSET`` is the model's length at reading 0; a leg model with terms but no stroke is
-    refused rather than written without them.
+    refused rather than written without them. A thermal leg model (``kt`` or ``cte`` terms) is
+    exported at its reference temperature (its base model: linear or stroke) and its terms go
+    into the run-time file ``hexcal-thermal.hal`` (:func:`hexcal.io.linuxcnc_thermal.thermal_export`);
+    a term LinuxCNC cannot apply at run time (compliance) is refused in one line.
     """
+    thermal = None
+    if geometry.leg_model.covariates:
+        from hexcal.io.linuxcnc_thermal import thermal_export
+
+        reference = geometry.leg_model.reference  # type: ignore[attr-defined]
+        geometry, thermal = thermal_export(geometry, shared_sensor=shared_sensor, source=source)
     tables = None
     if geometry.leg_model.stroke_range() is not None:
         from hexcal.io.linuxcnc_comp import comp_tables
@@ -297,6 +271,14 @@ def export_linuxcnc(
         "# strut reading the calibration was measured with (mm from the home switch at the old",
         "# scale: for a geometry from `hexcal import linuxcnc`, joint position - old HOME_OFFSET).",
         "# LinuxCNC ignores the HEXCAL_* keys; `hexcal import linuxcnc` reads them back.",
+    ]
+    if thermal is not None:
+        ini += [
+            "# The legs' thermal model: these values are the legs at its reference temperature, "
+            f"{_num(reference)} C;",
+            "# hexcal-thermal.hal trims each joint by its leg's growth at run time from its sensor.",
+        ]
+    ini += [
         "",
         "[TRAJ]",
         "LINEAR_UNITS = mm",
@@ -396,6 +378,10 @@ def export_linuxcnc(
         from hexcal.io.linuxcnc_comp import COMP_FILES, format_comp_table
 
         files |= {COMP_FILES[n]: format_comp_table(table) for n, table in enumerate(tables)}
+    if thermal is not None:
+        from hexcal.io.linuxcnc_thermal import THERMAL_HAL_FILE
+
+        files[THERMAL_HAL_FILE] = thermal
     return files
 
 

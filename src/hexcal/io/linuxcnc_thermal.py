@@ -45,12 +45,13 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hexcal.errors import UsageError
-from hexcal.io.linuxcnc import NUMBER, comment_line, comment_ok, printable
+from hexcal.io.hal_text import NUMBER, comment_line, comment_ok, printable
 
 #: The file :func:`thermal_hal` writes.
 THERMAL_HAL_FILE = "hexcal-thermal.hal"
@@ -213,7 +214,8 @@ def thermal_hal(
         "#   name the signal joint N's motor command goes to the drive on hexcal-drive-cmd-N and the",
         "#   one its feedback comes back on hexcal-drive-fb-N (N = 0..5); this file unlinks the",
         "#   joint's two pins and puts the offset between. Drive the temperature signal(s) from your",
-        "#   sensor, e.g. net hexcal-temp-0 <= thermistor.0.temperature-c",
+        f"#   sensor, e.g. net {'hexcal-temp' if shared_sensor else 'hexcal-temp-0'} "
+        "<= thermistor.0.temperature-c",
         "# if the machine's HAL already loads one of scale, mux2, limit2, mult2, offset: add these",
         "#   names= to its loadrt line instead (LinuxCNC loads a module once); if it already nets",
         "#   joint.N.homed (or joint.N.pos-cmd), net that signal to the pins below instead",
@@ -253,8 +255,8 @@ def thermal_hal(
             f"setp hexcal-thermal-ramp-{n}.max {_num(high - t_ref)}",
             f"setp hexcal-thermal-ramp-{n}.maxv {_num(slew)}",
             f"net hexcal-thermal-ramp-{n} hexcal-thermal-ramp-{n}.out => hexcal-thermal-mult-{n}.in0",
-            f"setp hexcal-thermal-coef-{n}.gain {_num(-k[n])}",
-            f"setp hexcal-thermal-coef-{n}.offset {_num(-a[n])}",
+            f"setp hexcal-thermal-coef-{n}.gain {_num(0.0 - k[n])}",
+            f"setp hexcal-thermal-coef-{n}.offset {_num(0.0 - a[n])}",
         ]
         if per_length is not None:
             lines.append(f"net hexcal-thermal-length-{n} joint.{n}.pos-cmd => hexcal-thermal-coef-{n}.in")
@@ -297,3 +299,38 @@ def check_thermal_hal_lines(name: str, text: str) -> None:
                 f"{name}: line {number} would be neither a comment nor a fixed command with numbers "
                 f"({printable(line, 60)!r}); nothing was written"
             )
+
+
+def thermal_export(
+    geometry: Any, *, shared_sensor: bool = False, source: str = "(in memory)"
+) -> tuple[Any, str]:
+    """A geometry with a thermal leg model as LinuxCNC carries it: ``(base, text)``, the
+    geometry at the model's reference temperature (its base model, linear or stroke: what
+    ``genhexkins`` and the compensation tables hold) and the text of ``hexcal-thermal.hal``
+    (:func:`thermal_hal`) with the model's coefficients: ``kt`` as ``alpha`` (mm/K), or ``cte``
+    as the growth per length (1/K).
+
+    A term the file cannot apply (:data:`CANNOT_CARRY`: compliance) is refused in one line by
+    :func:`check_carried`. The temperature range holds the reference temperature (the default
+    range, widened to it if need be).
+    """
+    from hexcal.core.covariate_legs import CovariateLegs, at_conditions
+    from hexcal.instruments import Covariates
+
+    model = geometry.leg_model
+    if not isinstance(model, CovariateLegs):
+        raise UsageError(f"{printable(source)}: the {model.name} leg model has no thermal term to export")
+    check_carried(model.groups())
+    theta = model.thetas(geometry.leg_block())  # (6, per_leg): the thermal coefficient after the base's
+    coefficient = theta[:, model.base.per_leg]
+    base = at_conditions(geometry, Covariates(temperatures=[model.reference]), source)
+    low, high = DEFAULT_TEMPERATURE_RANGE
+    text = thermal_hal(
+        0.0 if model.per_length else coefficient,
+        model.reference,
+        per_length=coefficient if model.per_length else None,
+        shared_sensor=shared_sensor,
+        temperature_range=(min(low, model.reference), max(high, model.reference)),
+        source=source,
+    )
+    return base, text

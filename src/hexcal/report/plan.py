@@ -76,6 +76,7 @@ def observability_text(data: dict[str, Any], fit: str = "joints,l0") -> str:
     for start in range(0, len(cells), 6):
         lines.append("  " + "  ".join(cells[start : start + 6]))
     lines += stroke_lines(data.get("stroke_coverage"))
+    lines += condition_lines(data.get("condition_coverage"))
     test = data.get("test_poses")
     if test:
         mean_rot, max_rot = test["orientation_rms_mean_rad"], test["orientation_rms_max_rad"]
@@ -118,6 +119,26 @@ def stroke_lines(coverage: dict[str, Any] | None) -> list[str]:
     return lines
 
 
+def condition_lines(coverage: dict[str, Any] | None) -> list[str]:
+    """How much a pose set's conditions vary (a leg model that reads them): each leg's
+    temperature span (K) and axial force span (N), whether the terms are determined, and the
+    findings (terms not determined)."""
+    if not coverage:
+        return []
+    lines = []
+    for key, what, unit in (
+        ("temperature_span_K", "Temperature span", "K"),
+        ("force_span_N", "Axial force span", "N"),
+    ):
+        if coverage.get(key) is not None:
+            spans = "  ".join(f"leg {k + 1} {s:.3g}" for k, s in enumerate(coverage[key]))
+            lines.append(f"{what} over the poses ({unit}): {spans}")
+    for term, ok in coverage["determined"].items():
+        lines.append(f"  {term} terms: {'determined' if ok else 'NOT determined'} by these poses")
+    lines += [f"  warning: {finding}" for finding in coverage["findings"]]
+    return lines
+
+
 #: Keys of the ``hexcal select --json`` file, in order.
 SELECT_JSON_KEYS = (
     "strategy",
@@ -140,8 +161,9 @@ def select_json(data: dict[str, Any]) -> dict[str, Any]:
     ``noise`` (assumed) and ``instrument`` where the selection records them, and
     ``stroke_coverage`` for a leg model with a curve of the stroke."""
     extra = {key: data[key] for key in ("noise", "instrument") if data.get(key) is not None}
-    if data.get("stroke_coverage"):
-        extra["stroke_coverage"] = data["stroke_coverage"]
+    for key in ("stroke_coverage", "condition_coverage"):
+        if data.get(key):
+            extra[key] = data[key]
     return {key: data[key] for key in SELECT_JSON_KEYS} | extra
 
 
@@ -178,6 +200,7 @@ def select_text(data: dict[str, Any]) -> str:
         word = "lower" if gain >= 0 else "higher"
         lines.append(f"  selected vs the paper's strategy: {abs(gain):.0%} {word} predicted error")
     lines += stroke_lines(data.get("stroke_coverage"))
+    lines += condition_lines(data.get("condition_coverage"))
     return "\n".join(lines)
 
 
