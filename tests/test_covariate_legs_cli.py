@@ -132,3 +132,35 @@ def test_synthesize_takes_one_temperature_and_states_it(capsys, files):
     )  # fmt: skip
     assert status == 1 and "carries the legs' temperatures" in err and len(err.strip().splitlines()) == 1
     assert not (files / "o.csv").exists()
+
+
+def test_validate_takes_one_temperature_and_states_it(capsys, files):
+    """``validate --temperature``: held-out poses measured at 30 °C in a file without a
+    temperature column validate a thermal machine exactly (noise-free: errors at rounding) and
+    the output says the conditions; without the option the one line names what is missing; a
+    file with the column refuses the option; Python's ``hexcal.validate`` records them alike."""
+    argv = ("synthesize", "--nominal", files / "paper.yaml", "--true", files / "warm.yaml",
+            "--poses", files / "poses.csv", "--noise", "leg=0,pos=0,ang=0", "--temperature", 30)  # fmt: skip
+    assert run(capsys, *argv, "--out", files / "w.csv")[0] == 0
+    lines = (files / "w.csv").read_text().splitlines()
+    header = lines[1].split(",")
+    keep = [k for k, name in enumerate(header) if name != "temp"]
+    stripped = [",".join(row.split(",")[k] for k in keep) for row in lines[1:]]
+    (files / "bare.csv").write_text("\n".join(stripped) + "\n")
+    status, out, _ = run(capsys, "validate", "--geometry", files / "warm.yaml", "--data", files / "bare.csv",
+                         "--temperature", 30)  # fmt: skip
+    assert status == 0 and "conditions of every pose (--temperature, --payload): legs at 30 °C" in out
+    rms = float(next(line for line in out.splitlines() if "position error RMS" in line).split()[-1])
+    assert rms < 1e-6  # the true machine at the temperature it was measured at
+    status, _, err = run(capsys, "validate", "--geometry", files / "warm.yaml", "--data", files / "bare.csv")
+    assert status == 1 and "needs the legs' temperatures" in err and len(err.strip().splitlines()) == 1
+    status, _, err = run(capsys, "validate", "--geometry", files / "warm.yaml", "--data", files / "w.csv",
+                         "--temperature", 30)  # fmt: skip
+    assert status == 1 and "carries the legs' temperatures" in err
+    import hexcal
+
+    geometry = hexcal.load_geometry(files / "warm.yaml")
+    session = hexcal.read_session(files / "bare.csv", None, geometry.euler)
+    result = hexcal.validate(geometry, session, temperature=30.0)
+    assert result.inputs["conditions"] == "legs at 30 °C"
+    assert result.to_dict()["position_rms_mm"] < 1e-6

@@ -212,9 +212,11 @@ def cmd_validate(args: argparse.Namespace) -> None:
     files |= _numbered("data", args.data) | _numbered("setup", args.setup)
     validation = validate(
         geometry, sessions, nominal=nominal, folds=args.folds, seed=args.seed,
-        inputs=inputs_record(files, args), **options,
+        inputs=inputs_record(files, args), temperature=args.temperature, payload=args.payload, **options,
     )  # fmt: skip
     print(validation.report())
+    if validation.inputs.get("conditions"):
+        print(f"conditions of every pose (--temperature, --payload): {validation.inputs['conditions']}")
     for line in validation.warnings:
         warn(f"hexcal: warning: {line}")
     if args.polar:
@@ -414,6 +416,7 @@ def register(sub: Any) -> None:
     from hexcal.cli.iso import iso_options
 
     iso_options(p)
+    condition_options(p)
     p.set_defaults(
         func=cmd_validate,
         inputs=("geometry", "data", "nominal", "setup"),

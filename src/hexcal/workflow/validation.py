@@ -48,6 +48,7 @@ from hexcal.core.stroke_legs import stroke_excess
 from hexcal.errors import UsageError
 from hexcal.estimation.sessions import as_sessions
 from hexcal.instruments.base import Session
+from hexcal.instruments.covariates import conditions_text, with_conditions
 
 
 @dataclass(frozen=True)
@@ -254,6 +255,8 @@ def validate(
     seed: int = 0,
     noise: NoiseModel | None = None,
     inputs: Mapping[str, Any] | None = None,
+    temperature: float | None = None,
+    payload: Any = None,
 ) -> Validation:
     """Validate a calibration on a held-out session (module docstring).
 
@@ -285,6 +288,10 @@ def validate(
         The noise the registrations weight with (default learned from the session).
     inputs : mapping, optional
         Provenance recorded with the result (files, options).
+    temperature, payload : optional
+        One leg temperature (°C) and one payload (kg, or kg and its centre x, y, z in mm) for
+        every row of a session whose file has no such column
+        (:func:`hexcal.instruments.with_conditions`); recorded as ``inputs["conditions"]``.
 
     Raises
     ------
@@ -311,6 +318,12 @@ def validate(
             f"validate: one session at a time, got {len(sessions)} (validate each session on its own)"
         )
     held = sessions[0]
+    if temperature is not None or payload is not None:
+        rows = len(held.instrument.readings(held.data))
+        where = held.label or "the held-out session"
+        conditions = with_conditions(held.data.covariates, rows, temperature, payload, where)
+        held = held.replace(data=held.data.replace(covariates=conditions))
+        inputs = dict(inputs or {}) | {"conditions": conditions_text(conditions)}
     check_folds(held, folds=folds)  # folds given where nothing is re-registered cannot act
     folds = VALIDATION_FOLDS if folds is None else folds
     options = {"folds": folds, "seed": seed, "noise": noise}
