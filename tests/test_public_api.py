@@ -26,8 +26,7 @@ PACKAGES = ("hexcal", *(f"hexcal.{name}" for name in LAYERS))
 
 #: Modules whose every own function and class is internal (solver and linear-algebra pieces).
 INTERNAL_MODULES = (
-    "hexcal.estimation.batched_solver",
-    "hexcal.estimation.batched_ml",
+    "hexcal.estimation.levenberg",
     "hexcal.estimation.stacked",
     "hexcal.core.linalg",
 )

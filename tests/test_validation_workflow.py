@@ -278,7 +278,7 @@ def test_the_page_names_the_instrument_and_its_setup_files(calibrated: dict) -> 
     assert conditions["nominal geometry"] == "paper-hmt"
     inputs = page.split('id="inputs"')[1]
     for role in ("geometry", "data", "setup", "nominal"):
-        assert f"<td class=\"text\">{role}</td>" in inputs, role
+        assert f'<td class="text">{role}</td>' in inputs, role
     assert str(calibrated["files"]["setup-out"]) in inputs and str(calibrated["held"]) in inputs
 
 

@@ -144,7 +144,12 @@ SWAP_MOVE = 1.0
 
 #: The codes of the diagnoses: a likely cause of the fit's other findings.
 CAUSES = (
-    "unfitted-gains", "absolute-readings", "swapped-columns", "euler-sequence", "length-units", "angle-units"
+    "unfitted-gains",
+    "absolute-readings",
+    "swapped-columns",
+    "euler-sequence",
+    "length-units",
+    "angle-units",
 )
 
 

@@ -82,9 +82,7 @@ def cmd_compensate(args: argparse.Namespace) -> None:
     print(f"wrote leg commands for {len(kept_ids)} target(s) to {args.out}")
 
 
-def _write_poses_like(
-    table: Any, path: str, poses: Any, ids: list[str], euler: str, covariates: Any
-) -> None:
+def _write_poses_like(table: Any, path: str, poses: Any, ids: list[str], euler: str, covariates: Any) -> None:
     """Write poses with the orientation columns of the input table: radians ``a, b, c``,
     degrees ``a_deg, b_deg, c_deg`` or quaternions ``qx, qy, qz, qw``; then the covariates."""
     import numpy as np

@@ -37,7 +37,6 @@ _COORD = re.compile(r"genhexkins\.(base|platform)\.(\d+)\.([xyz])")
 _INI_REF = re.compile(r"\[([^\]\s]+)\]([^\s\[\]]+)")
 
 
-
 @dataclass(frozen=True)
 class IniFile:
     """A LinuxCNC INI file: ``(section, key) -> (value, line)`` of each key's first occurrence.

@@ -220,9 +220,7 @@ def table_legs(table: Table, ids: tuple[str, ...] | None = None) -> LegData:
     return _legs(table, lambda: table.ids() if ids is None else ids, table_covariates)
 
 
-def _legs(
-    table: Table, ids: Callable[[], tuple[str, ...]], covariates: Callable[..., Covariates]
-) -> LegData:
+def _legs(table: Table, ids: Callable[[], tuple[str, ...]], covariates: Callable[..., Covariates]) -> LegData:
     """Leg data of a table, its ids read after the numbers (read with them, in one pass), and
     its covariates (``covariates(table, columns)``)."""
     has_l = any(table.has(c) for c in LEG_LENGTH_COLUMNS)
