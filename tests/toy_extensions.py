@@ -61,6 +61,9 @@ class QuadraticLegs(LegModel):
     def term_scales(self) -> NDArray[np.float64]:
         return np.array([1e-5])  # 1e-5 / mm moves a leg by 0.1 mm at 100 mm of reading
 
+    def term_units(self) -> tuple[str, ...]:
+        return ("1/mm",)  # q multiplies a squared reading (mm²) to give a length
+
     def to_dict(self, block: ArrayLike) -> Any:
         return {"kind": self.name, "q": [float(v) for v in np.asarray(block)[12:18]]}
 

@@ -341,8 +341,9 @@ def identification_page(report: Mapping[str, Any]) -> str:
     sessions, parameters, figures, inputs."""
     result = report.get("result", {})
     names = result.get("names") or result.get("parameters", {})
-    angles = any(unit_of(result, n) == "rad" for n in names)
-    units = "Lengths in mm, gains dimensionless" + (", instrument angles in degrees" if angles else "")
+    held = {unit_of(result, n) for n in names}
+    units = "Lengths in mm, gains dimensionless" + (", angles in degrees" if "rad" in held else "")
+    units += "".join(f", {esc(u)} as held" for u in sorted(held - {"mm", "1", "rad"}))
     sections = [
         _verdict(result),
         section("Fit statistics", key_value_table(fit_statistics(result)), "statistics"),
