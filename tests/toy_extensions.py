@@ -34,8 +34,16 @@ from hexcal.core.machine import pose_frames
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import GeometryError, InputError, UsageError
-from hexcal.instruments import MODELS, MeasurementModel, cross_axes, fk_start_poses, register_instrument
-from hexcal.io import READERS, WRITERS, read_table, write_table
+from hexcal.instruments import (
+    MODELS,
+    InstrumentKind,
+    MeasurementModel,
+    cross_axes,
+    fk_start_poses,
+    register_instrument,
+    unregister_instrument,
+)
+from hexcal.io import read_table, write_table
 
 # -- the toy leg model -------------------------------------------------------------------
 
@@ -238,6 +246,13 @@ def write_bar_file(
 
 # -- registration ------------------------------------------------------------------------
 
+#: The ball bar's record: its model, data class, the column of its files and their reader and
+#: writer (no setup file: it is given to a session as the instrument itself).
+TOYBAR = InstrumentKind(
+    BallBar.name, BallBar, data=BarMeasurements, columns={"bar": "mm"}, label="ball-bar lengths",
+    reader=read_bar_file, writer=write_bar_file,
+)  # fmt: skip
+
 
 @contextmanager
 def registered() -> Iterator[None]:
@@ -245,11 +260,10 @@ def registered() -> Iterator[None]:
     name, one line each, then removed again."""
     if BallBar.name in MODELS or QuadraticLegs.name in LEG_MODELS:
         raise UsageError("the toy names are taken")
-    register_instrument(BallBar)
-    READERS[BallBar.name], WRITERS[BallBar.name] = read_bar_file, write_bar_file
+    register_instrument(TOYBAR)
     register_leg_model(QuadraticLegs)
     try:
         yield
     finally:
-        del MODELS[BallBar.name], READERS[BallBar.name], WRITERS[BallBar.name]
+        unregister_instrument(BallBar.name)
         del LEG_MODELS[QuadraticLegs.name]
