@@ -33,7 +33,7 @@ from hexcal.core.legs import LEG_MODELS, LegModel, register_leg_model
 from hexcal.core.machine import pose_frames
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
-from hexcal.design.candidates import PlannedMeasurements
+from hexcal.design import PlannedMeasurements
 from hexcal.errors import GeometryError, InputError, UsageError
 from hexcal.instruments import (
     MODELS,
