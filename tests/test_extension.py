@@ -43,7 +43,7 @@ from hexcal.estimation import (
 from hexcal.instruments import FullPoseModel, Measurements, Session, model_by_name
 from hexcal.io import export_linuxcnc, load_geometry, read_sessions, save_geometry, write_session_data
 from hexcal.simulation import STRATEGIES, instrument_campaign, run_study, simulate_session
-from toy_extensions import BallBar, BarMeasurements, QuadraticLegs, registered
+from toy_extensions import BallBar, BarMeasurements, BarSetup, QuadraticLegs, registered
 
 NOISE = NoiseModel(leg=0.001, position=0.001, orientation=1e-6, distribution="normal")
 #: The two pivots of the ball bar's sessions (base frame) and its ball (platform frame), mm.
@@ -80,8 +80,8 @@ def instruments(kind: str) -> list[tuple]:
     rng = np.random.default_rng(9)
     out = []
     for pivot in PIVOTS:
-        start = BallBar(np.add(pivot, rng.uniform(-1, 1, 3)), np.add(BALL, rng.uniform(-1, 1, 3)))
-        out.append((BallBar(pivot, BALL), start))
+        start = BallBar(BarSetup(np.add(pivot, rng.uniform(-1, 1, 3)), np.add(BALL, rng.uniform(-1, 1, 3))))
+        out.append((BallBar(BarSetup(pivot, BALL)), start))
     return out
 
 
@@ -120,7 +120,7 @@ def case(request, toys):
 
 
 def test_registered_by_name_and_in_files(toys, tmp_path):
-    bar = model_by_name("toybar", PIVOTS[0], BALL)
+    bar = model_by_name("toybar", BarSetup(PIVOTS[0], BALL))
     assert isinstance(bar, BallBar) and bar.parameters().names[0] == "pivot.x"
     nominal, true = machines("quadratic")
     assert "q_1" in nominal.machine_parameters("joints,l0,quadratic").free_names

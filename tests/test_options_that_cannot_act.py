@@ -31,7 +31,7 @@ def test_ballbar_options_without_ballbar_are_refused(tmp_path: Path, command: st
     out = tmp_path / "c.csv"
     done = run(command, "--geometry", "paper-hmt", option, value, "--out", out)
     assert done.code == 1 and not out.exists()
-    line = f"hexcal: error: {option} acts only with --ballbar; give --ballbar, or leave {option} out\n"
+    line = f"hexcal: error: {option} acts only with --setup; give --setup, or leave {option} out\n"
     assert done.err == line
 
 

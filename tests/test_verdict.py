@@ -129,7 +129,7 @@ def test_predicted_accuracy_and_undetermined_combinations_are_first_order_consis
     names = ("u1.z", "s1.z", "l0_1")
     vec = np.array([1, 1, 0]) / np.sqrt(2)
     cov = 1e-4 * np.eye(3) + 400 * np.outer(vec, vec)
-    worst = undetermined(cov, names)
+    worst = undetermined(cov, names, ("mm", "mm", "mm"))  # the units the parameters carry
     assert len(worst) == 1 and worst[0][0] == pytest.approx(20, rel=1e-6)
     assert "u1.z" in worst[0][1] and "s1.z" in worst[0][1]
     # a pure l0_1 error of 1 mm: the first-order map against the forward kinematics

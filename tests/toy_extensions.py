@@ -33,9 +33,18 @@ from hexcal.core.legs import LEG_MODELS, LegModel, register_leg_model
 from hexcal.core.machine import pose_frames
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
+from hexcal.design import PlannedMeasurements
 from hexcal.errors import GeometryError, InputError, UsageError
-from hexcal.instruments import MODELS, MeasurementModel, cross_axes, fk_start_poses, register_instrument
-from hexcal.io import READERS, WRITERS, read_table, write_table
+from hexcal.instruments import (
+    MODELS,
+    InstrumentKind,
+    MeasurementModel,
+    cross_axes,
+    fk_start_poses,
+    register_instrument,
+    unregister_instrument,
+)
+from hexcal.io import read_table, write_table
 
 # -- the toy leg model -------------------------------------------------------------------
 
@@ -60,6 +69,9 @@ class QuadraticLegs(LegModel):
 
     def term_scales(self) -> NDArray[np.float64]:
         return np.array([1e-5])  # 1e-5 / mm moves a leg by 0.1 mm at 100 mm of reading
+
+    def term_units(self) -> tuple[str, ...]:
+        return ("1/mm",)  # q multiplies a squared reading (mm²) to give a length
 
     def to_dict(self, block: ArrayLike) -> Any:
         return {"kind": self.name, "q": [float(v) for v in np.asarray(block)[12:18]]}
@@ -105,32 +117,101 @@ class BarMeasurements:
 BAR_NAMES = ("pivot.x", "pivot.y", "pivot.z", "ball.x", "ball.y", "ball.z")
 
 
-class BallBar(MeasurementModel):
-    """A ball bar between ``pivot`` (base frame, mm) and ``ball`` (platform frame, mm).
+def _point(value: Any, where: str) -> NDArray[np.float64]:
+    if not isinstance(value, list) or len(value) != 3 or not all(isinstance(v, int | float) for v in value):
+        raise InputError(f"toybar.{where}: three numbers [x, y, z] (mm)")
+    return np.array(value, dtype=float)
 
-    ``fixed`` may hold ``pivot`` or ``ball`` (known exactly). Noise: the ``position`` standard
-    deviation of the :class:`NoiseModel` (the bar's length error).
+
+@dataclass(frozen=True, eq=False)
+class BarSetup:
+    """The ball bar's setup: ``pivot`` (base frame, mm), ``ball`` (platform frame, mm), ``fixed``
+    (``pivot`` and/or ``ball``, known exactly). Its file: ``units: mm``, ``toybar: {pivot: [x, y,
+    z], ball: [x, y, z]}``, optional ``fixed: [...]`` and, once calibrated, ``calibration``."""
+
+    pivot: NDArray[np.float64]
+    ball: NDArray[np.float64]
+    fixed: tuple[str, ...] = ()
+    calibration: dict[str, Any] | None = None
+    columns: dict[str, str] | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "pivot", np.array(self.pivot, dtype=float).reshape(3))
+        object.__setattr__(self, "ball", np.array(self.ball, dtype=float).reshape(3))
+        object.__setattr__(self, "fixed", tuple(self.fixed))
+
+    kind = "toybar"
+    auto = False
+
+    def names(self) -> tuple[str, ...]:
+        return BAR_NAMES
+
+    def vector(self) -> NDArray[np.float64]:
+        return np.concatenate([self.pivot, self.ball])
+
+    def parameters(self, euler: str | None = None) -> ParameterSet:
+        vary = np.array([("pivot" not in self.fixed)] * 3 + [("ball" not in self.fixed)] * 3)
+        groups = {"pivot": BAR_NAMES[:3], "ball": BAR_NAMES[3:]}
+        return ParameterSet(BAR_NAMES, self.vector(), vary, np.ones(6), groups, units="mm")
+
+    def with_vector(self, values: ArrayLike, calibration: dict[str, Any] | None = None) -> BarSetup:
+        values = np.asarray(values, dtype=float)
+        return dataclasses.replace(self, pivot=values[:3], ball=values[3:6], calibration=calibration)
+
+    def in_euler(self, euler: str) -> BarSetup:
+        return self  # no angles
+
+    @classmethod
+    def from_dict(cls, data: Any) -> BarSetup:
+        if not isinstance(data, dict) or set(data) - {"units", "toybar", "fixed", "calibration"}:
+            raise InputError("a toybar setup has the keys units, toybar, fixed, calibration")
+        if data.get("units") != "mm":
+            raise InputError("units: only mm")
+        bar = data["toybar"]
+        if not isinstance(bar, dict) or set(bar) != {"pivot", "ball"}:
+            raise InputError("toybar: a mapping {pivot: [x, y, z], ball: [x, y, z]}")
+        fixed = tuple(data.get("fixed") or ())
+        if set(fixed) - {"pivot", "ball"}:
+            raise InputError("fixed: pivot and/or ball")
+        return cls(_point(bar["pivot"], "pivot"), _point(bar["ball"], "ball"), fixed, data.get("calibration"))
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "units": "mm",
+            "toybar": {"pivot": self.pivot.tolist(), "ball": self.ball.tolist()},
+        }
+        if self.fixed:
+            out["fixed"] = list(self.fixed)
+        if self.calibration is not None:
+            out["calibration"] = self.calibration
+        return out
+
+
+class BallBar(MeasurementModel):
+    """A ball bar of a :class:`BarSetup`: between ``pivot`` (base frame, mm) and ``ball``
+    (platform frame, mm). Noise: the ``position`` standard deviation of the
+    :class:`NoiseModel` (the bar's length error).
     """
 
     name = "toybar"
     size = 1
 
-    def __init__(self, pivot: ArrayLike, ball: ArrayLike, fixed: tuple[str, ...] = ()) -> None:
-        self.pivot = np.array(pivot, dtype=float).reshape(3)
-        self.ball = np.array(ball, dtype=float).reshape(3)
-        self.fixed = tuple(fixed)
+    def __init__(self, setup: BarSetup) -> None:
+        self.setup = setup
+        self.pivot, self.ball, self.fixed = setup.pivot, setup.ball, setup.fixed
 
     # -- parameters ----------------------------------------------------------------------
     def parameters(self) -> ParameterSet:
-        vary = np.array([("pivot" not in self.fixed)] * 3 + [("ball" not in self.fixed)] * 3)
-        groups = {"pivot": BAR_NAMES[:3], "ball": BAR_NAMES[3:]}
-        return ParameterSet(BAR_NAMES, np.concatenate([self.pivot, self.ball]), vary, np.ones(6), groups)
+        return self.setup.parameters()
 
     def with_values(self, values: NDArray[np.float64], calibration: dict[str, Any] | None = None) -> BallBar:
-        return BallBar(values[:3], values[3:6], self.fixed)
+        return BallBar(self.setup.with_vector(values, calibration))
 
     def describe(self) -> str:
         return "ball bar between a base pivot and a platform ball"
+
+    def setup_dict(self) -> dict[str, Any] | None:
+        return self.setup.to_dict()
 
     # -- data ----------------------------------------------------------------------------
     def observed(self, data: BarMeasurements) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
@@ -235,6 +316,62 @@ def write_bar_file(
 
 # -- registration ------------------------------------------------------------------------
 
+# -- its planner ---------------------------------------------------------------------------
+
+
+class BarPlanner:
+    """The ball bar's own candidate measurements: the workspace's corners and centre at
+    ``levels`` heights, kept where the bar (pivot to ball) is between ``shortest`` and
+    ``longest`` mm; and their selection: the ``count`` (default 30) whose bar directions are
+    most spread (greedy farthest-point on the unit sphere, from the first)."""
+
+    def candidates(
+        self, geometry: Geometry, setup: BarSetup, *, min_distance: Any = None, levels: int = 4,
+        shortest: float = 100.0, longest: float = 2000.0,
+    ) -> PlannedMeasurements:  # fmt: skip
+        from hexcal.core import workspace_corners
+        from hexcal.design import MIN_SINGULARITY_DISTANCE, check_feasibility
+
+        corners = workspace_corners(geometry)
+        poses = np.concatenate([corners, corners.mean(axis=0, keepdims=True)])
+        shift = np.linspace(-0.25, 0.25, levels) * np.ptp(corners[:, 2])
+        poses = np.concatenate([poses + np.array([0, 0, dz, 0, 0, 0]) for dz in shift])
+        bar = BallBar(setup).predict(setup.vector(), poses, geometry.euler)[:, 0]
+        keep = (bar > shortest) & (bar < longest)
+        keep &= check_feasibility(geometry, poses, min_distance or MIN_SINGULARITY_DISTANCE).feasible
+        ids = tuple(f"bar{k + 1}" for k in range(int(keep.sum())))
+        lines = [
+            f"{len(ids)} toybar pose(s) of {len(poses)} with the bar {shortest:g} to {longest:g} mm long"
+        ]
+        return PlannedMeasurements(poses[keep], ids, lines, "toybar poses")
+
+    def select(
+        self, geometry: Geometry, setup: BarSetup, noise: Any = None, fit: str = "joints,l0",
+        count: int | None = None, **options: Any,
+    ) -> PlannedMeasurements:  # fmt: skip
+        found = self.candidates(geometry, setup, **options)
+        count = min(30 if count is None else count, len(found.ids))
+        rot, pos = pose_frames(found.poses, geometry.euler)
+        v = pos + np.einsum("...ij,j->...i", rot, setup.ball) - setup.pivot
+        u = v / np.linalg.norm(v, axis=1, keepdims=True)
+        chosen = [0]
+        for _ in range(count - 1):
+            gap = np.min(np.linalg.norm(u[:, None, :] - u[None, chosen, :], axis=2), axis=1)
+            chosen.append(int(np.argmax(gap)))
+        lines = [f"{count} toybar pose(s) chosen of {len(found.ids)}, the bar's directions spread"]
+        data = {"ids": [found.ids[k] for k in chosen], "fit": fit}
+        return PlannedMeasurements(
+            found.poses[chosen], tuple(found.ids[k] for k in chosen), lines, "toybar", data
+        )
+
+
+#: The ball bar's record, its one registration: model, setup class and the key of its setup
+#: files, data class, the column of its data files, their reader and writer, its planner.
+TOYBAR = InstrumentKind(
+    BallBar.name, BallBar, setup=BarSetup, setup_key="toybar", data=BarMeasurements, columns={"bar": "mm"},
+    label="ball-bar lengths", reader=read_bar_file, writer=write_bar_file, planner=BarPlanner(),
+)  # fmt: skip
+
 
 @contextmanager
 def registered() -> Iterator[None]:
@@ -242,11 +379,10 @@ def registered() -> Iterator[None]:
     name, one line each, then removed again."""
     if BallBar.name in MODELS or QuadraticLegs.name in LEG_MODELS:
         raise UsageError("the toy names are taken")
-    register_instrument(BallBar)
-    READERS[BallBar.name], WRITERS[BallBar.name] = read_bar_file, write_bar_file
+    register_instrument(TOYBAR)
     register_leg_model(QuadraticLegs)
     try:
         yield
     finally:
-        del MODELS[BallBar.name], READERS[BallBar.name], WRITERS[BallBar.name]
+        unregister_instrument(BallBar.name)
         del LEG_MODELS[QuadraticLegs.name]

@@ -371,7 +371,9 @@ def _weak_combinations(problem: Problem, noises: tuple[NoiseModel, ...], sigma_l
             return f"not determined by these data: {lost[-1]} ({len(lost)} combination(s))"
         cov = gauge_fixed_covariance(problem, jac, gauge)
         values = problem.full0[problem.mask]
-        weak = [(s, c) for s, c in undetermined(cov, problem.names, sigma_limit, values) if s > FAIL_FACTOR]
+        units, scales = problem.parameters.free_units, problem.scale
+        found = undetermined(cov, problem.names, units, sigma_limit, values, scales)
+        weak = [(s, c) for s, c in found if s > FAIL_FACTOR]
     except (HexcalError, ValueError, np.linalg.LinAlgError):
         return ""
     return "; ".join(

@@ -73,7 +73,8 @@ def undetermined_quantities(
         return np.zeros_like(keep)
     problem = Problem(geometry, [session], parameters=registration_parameters(geometry, session, keep))
     jac = projected_jacobian(problem, NoiseModel() if noise is None else noise)
-    limits = FAIL_FACTOR * parameter_limits(problem.names) / problem.scale  # solver units
+    units = problem.parameters.free_units
+    limits = FAIL_FACTOR * parameter_limits(units, scales=problem.scale) / problem.scale  # solver units
     alive = np.ones(problem.n_free, dtype=bool)
     while alive.any():
         svd = scaled_svd(jac[:, alive])

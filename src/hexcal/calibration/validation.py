@@ -261,6 +261,7 @@ def validate(
         "held": [n for n, a, v in zip(own.names, asked, vary, strict=True) if a and not v],
         "values": {n: whole.parameters[n] for n in names},
         "stderr": {n: whole.standard_errors[n] for n in names},
+        "units": {n: own.unit_of()[n] for n in names},
         "leg_rms_mm": whole.leg_rms_after,
         "noise": noise.describe(),
     }

@@ -31,6 +31,7 @@ geometry should not be used (the CLI writes it only with ``--force``).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -53,14 +54,14 @@ from hexcal.calibration.sequence import sequence_reasons
 from hexcal.calibration.stroke_structure import stroke_findings
 from hexcal.core.geometry import Geometry
 from hexcal.errors import HexcalError, UsageError
+from hexcal.estimation.sessions import parameter_units
 
 #: Default limits of the predicted σ of a parameter combination (per unit of the
-#: normalised combination): 1 mm for lengths, 1e-3 (relative) for gains, 1e-3 rad for an
-#: instrument's angles. ``assess(sigma_limit=k)`` scales them by ``k``.
-SIGMA_LIMITS = {"length": 1.0, "gain": 1e-3, "angle": 1e-3}
-
-#: Names of instrument angles (frame and tool orientation).
-_ANGLE_SUFFIXES = (".a", ".b", ".c")
+#: normalised combination), by the parameter's unit (:data:`hexcal.core.parameters.UNITS`):
+#: 1 mm for lengths, 1e-3 (relative) for ratios (gains), 1e-3 rad for angles. A parameter of
+#: another unit (a leg model's own term, ``1/mm``) is judged in its characteristic scale.
+#: ``assess(sigma_limit=k)`` scales them by ``k``.
+SIGMA_LIMITS = {"mm": 1.0, "1": 1e-3, "rad": 1e-3}
 
 
 def combination_name(vector: NDArray[np.float64], names: tuple[str, ...], top: int = 4) -> str:
@@ -74,25 +75,24 @@ def _local(name: str) -> str:
     return name.split(".", 1)[1] if name.startswith("session") and "." in name else name
 
 
-def _kind(name: str) -> str:
-    """``gain``, ``angle`` or ``length``: the unit of a parameter's limits."""
-    local = _local(name)
-    if local.startswith("g") and local[1:].isdigit():
-        return "gain"
-    if local.startswith(("frame.", "tool.")) and local.endswith(_ANGLE_SUFFIXES):
-        return "angle"
-    return "length"
-
-
 def parameter_limits(
-    names: tuple[str, ...], sigma_limit: float = 1.0, values: NDArray[np.float64] | None = None
+    units: Sequence[str],
+    sigma_limit: float = 1.0,
+    values: NDArray[np.float64] | None = None,
+    scales: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
-    """The σ limit of each named parameter (mm, rad, or relative to the gain's ``values``)."""
+    """The σ limit of each parameter by its unit (:data:`SIGMA_LIMITS`: mm, rad, or relative to
+    a ratio's ``values``); a unit of its own is judged in the parameter's ``scales`` (1 when not
+    given).
+
+    >>> parameter_limits(("mm", "1", "rad", "1/mm"), 2.0, np.array([0, 0.5, 0, 0]), np.array([1, 1, 1, 1e-5]))
+    array([2.e+00, 1.e-03, 2.e-03, 2.e-05])
+    """
     out = []
-    for k, n in enumerate(names):
-        kind = _kind(n)
-        limit = SIGMA_LIMITS[kind] * sigma_limit
-        if kind == "gain" and values is not None and values[k] != 0:
+    for k, unit in enumerate(units):
+        own = 1.0 if scales is None else float(scales[k])
+        limit = SIGMA_LIMITS.get(unit, own) * sigma_limit
+        if unit == "1" and values is not None and values[k] != 0:
             limit *= abs(float(values[k]))
         out.append(limit)
     return np.array(out)
@@ -101,12 +101,14 @@ def parameter_limits(
 def undetermined(
     covariance: NDArray[np.float64],
     names: tuple[str, ...],
+    units: Sequence[str],
     sigma_limit: float = 1.0,
     values: NDArray[np.float64] | None = None,
+    scales: NDArray[np.float64] | None = None,
 ) -> list[tuple[float, str]]:
-    """Parameter combinations whose predicted σ exceeds the limit: ``[(σ, name), ...]``, worst
-    first (σ in units of the limits)."""
-    d = parameter_limits(names, sigma_limit, values)
+    """Parameter combinations whose predicted σ exceeds the limit (:func:`parameter_limits` of
+    the parameters' ``units``): ``[(σ, name), ...]``, worst first (σ in units of the limits)."""
+    d = parameter_limits(units, sigma_limit, values, scales)
     cov = covariance / np.outer(d, d)
     vals, vecs = np.linalg.eigh(0.5 * (cov + cov.T))
     sig = np.sqrt(np.maximum(vals, 0.0))
@@ -133,21 +135,22 @@ def machine_size(geometry: Geometry) -> tuple[float, float]:
 def change_limits(
     geometry: Geometry,
     names: tuple[str, ...],
+    units: Sequence[str],
     fraction: float = MAX_CHANGE,
     values: NDArray[np.float64] | None = None,
 ) -> NDArray:
-    """Largest plausible change of each named parameter: a fraction of the base radius for
-    ``u``, of the platform radius for ``s`` and for what an instrument sees on the platform
-    (a tool, targets), of the larger for the leg model's lengths, of the gain itself for a
-    gain; none (inf) for an instrument's frame and angles, which the data register from
-    anywhere."""
+    """Largest plausible change of each named parameter, by its unit: for a length a fraction
+    of the base radius for ``u``, of the platform radius for ``s`` and for what an instrument
+    sees on the platform (a tool, targets), of the larger for the leg model's lengths; of the
+    ratio itself for a ratio (a gain); none (inf) for an instrument's frame, which the data
+    register from anywhere, for angles and for a unit of a leg model's own."""
     rb, rp = machine_size(geometry)
     out = []
-    for k, n in enumerate(names):
-        local, kind = _local(n), _kind(n)
-        if local.startswith("frame.") or kind == "angle":
+    for k, (n, unit) in enumerate(zip(names, units, strict=True)):
+        local = _local(n)
+        if local.startswith("frame.") or unit not in ("mm", "1"):
             out.append(np.inf)
-        elif kind == "gain":
+        elif unit == "1":
             out.append(fraction * (abs(float(values[k])) if values is not None else 1.0))
         elif local.startswith("u"):
             out.append(fraction * rb)
@@ -237,8 +240,9 @@ def assess(
     instruments = [p.instrument for p in problem.parts] if problem is not None else []
     reasons += noise_findings(noise_estimate, noise_check, instruments)
     names = result.names
+    units, scales = result_units(result, problem)
     start_values = np.asarray(result.start_values)
-    for sig, combo in undetermined(result.covariance, names, sigma_limit, start_values)[:5]:
+    for sig, combo in undetermined(result.covariance, names, units, sigma_limit, start_values, scales)[:5]:
         severity = "fail" if sig > FAIL_FACTOR else "warn"
         reasons.append(
             Reason(
@@ -251,7 +255,7 @@ def assess(
             )
         )
     change = np.asarray(result.values) - (start_values if reference is None else reference)
-    limits = change_limits(result.start, names, max_change, start_values)
+    limits = change_limits(result.start, names, units, max_change, start_values)
     over = np.flatnonzero(np.abs(change) > limits)
     if over.size:
         worst = over[np.argsort(-np.abs(change[over]) / limits[over])][:4]
@@ -287,6 +291,15 @@ def assess(
         # the likely cause (radians in degree columns, swapped columns) before its consequences
         verdict = Verdict(tuple(likely_cause_first([*reasons, *extra])), acc)
     return verdict
+
+
+def result_units(result: Any, problem: Any = None) -> tuple[tuple[str, ...], NDArray[np.float64] | None]:
+    """The units of a result's parameters (order of ``names``) as their makers set them, and
+    their scales when the ``problem`` is at hand (else None)."""
+    if problem is not None and tuple(problem.names) == tuple(result.names):
+        return problem.parameters.free_units, np.asarray(problem.scale)
+    units = parameter_units(result.start, result.instruments)
+    return tuple(units[n] for n in result.names), None
 
 
 def _outlier_reasons(result: Any, problem: Any, noise: Any) -> tuple[list[Reason], list[int]]:

@@ -250,7 +250,7 @@ def _candidate_kind(token: str, geometry: Any, rng: Any) -> tuple[Any, list[str]
     return poses, [f"{CANDIDATE_PREFIXES[kind]}{k:0{width}d}" for k in range(len(poses))]
 
 
-def candidate_files(spec: str) -> list[str]:
+def candidate_files(spec: str | None) -> list[str]:
     """The files a ``--candidates`` spec names (every token that is not a built-in kind).
 
     Declared as inputs of the command's output set, so that no output may replace one.
@@ -258,7 +258,7 @@ def candidate_files(spec: str) -> list[str]:
     >>> candidate_files("corners+grid:3+poses.csv+random:10+more.csv")
     ['poses.csv', 'more.csv']
     """
-    tokens = [t.strip() for t in spec.split("+") if t.strip()]
+    tokens = [t.strip() for t in (spec or "").split("+") if t.strip()]
     return [t for t in tokens if t.partition(":")[0] not in CANDIDATE_PREFIXES]
 
 

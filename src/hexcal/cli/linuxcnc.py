@@ -1,8 +1,9 @@
-"""LinuxCNC subcommands of ``hexcal``: ``export linuxcnc`` and ``import linuxcnc``.
+"""Controller subcommands of ``hexcal``: ``export CONTROLLER`` and ``import linuxcnc``.
 
-- ``hexcal export linuxcnc --geometry G --out DIR`` writes ``DIR/hexcal-kins.hal`` and
-  ``DIR/hexcal-joints.ini``, with the compensation tables of a stroke leg model and the run-time
-  ``hexcal-thermal.hal`` of a thermal one (all or none);
+- ``hexcal export CONTROLLER --geometry G --out DIR`` writes the files of a registered
+  controller export (:data:`hexcal.io.exports.EXPORTS`; ``linuxcnc``: ``DIR/hexcal-kins.hal``
+  and ``DIR/hexcal-joints.ini``, the compensation tables of a stroke leg model and the
+  run-time ``hexcal-thermal.hal`` of a thermal one), all or none;
 - ``hexcal import linuxcnc --hal FILE [--ini FILE] --out G.yaml`` writes a geometry of
   the machine a LinuxCNC configuration describes.
 
@@ -22,8 +23,7 @@ from typing import Any
 from hexcal.cli.common import GEOMETRY_HELP, CommandError
 
 #: The files ``export linuxcnc`` writes into its ``--out`` folder (``hexcal.io.linuxcnc``'s
-#: ``HAL_FILE`` and ``INI_FILE``, spelled here so that the parser needs no numpy; a test
-#: checks that they agree).
+#: ``HAL_FILE`` and ``INI_FILE``, spelled here for the tests; a test checks that they agree).
 EXPORT_FILES = ("hexcal-kins.hal", "hexcal-joints.ini")
 #: The joint compensation tables of a stroke leg model (``hexcal.io.linuxcnc_comp.COMP_FILES``).
 COMP_FILES = tuple(f"hexcal-comp-{n}.tbl" for n in range(6))
@@ -31,29 +31,37 @@ COMP_FILES = tuple(f"hexcal-comp-{n}.tbl" for n in range(6))
 THERMAL_FILE = "hexcal-thermal.hal"
 
 
+def _export_files(target: str) -> tuple[str, ...]:
+    """The files the export ``target`` may write (its record's; declared before any work)."""
+    from hexcal.io.exports import export_files
+
+    return export_files(target)
+
+
 def register(sub: Any, geometry_help: str = GEOMETRY_HELP) -> None:
     """Add ``export`` and ``import`` to the ``hexcal`` parser's subparsers."""
     p = sub.add_parser("export", help="write a geometry in a controller's format (LinuxCNC genhexkins)")
-    p.add_argument("target", choices=("linuxcnc",), help="controller format")
+    p.add_argument("target", metavar="CONTROLLER", help="controller format: a registered export (linuxcnc)")
     p.add_argument("--geometry", required=True, help=f"(calibrated) {geometry_help}")
     p.add_argument(
         "--out",
         required=True,
-        help="folder for hexcal-kins.hal and hexcal-joints.ini, hexcal-comp-0..5.tbl for a stroke "
-        "leg model and hexcal-thermal.hal for a thermal one (created if missing)",
+        help="folder for the controller's files (linuxcnc: hexcal-kins.hal and hexcal-joints.ini, "
+        "hexcal-comp-0..5.tbl for a stroke leg model, hexcal-thermal.hal for a thermal one; created if "
+        "missing)",
     )
     p.add_argument(
         "--shared-sensor",
         action="store_true",
-        help="a thermal leg model: one temperature sensor for every leg (signal hexcal-temp) instead of "
-        "one per leg (hexcal-temp-0..5)",
+        help="linuxcnc, a thermal leg model: one temperature sensor for every leg (signal hexcal-temp) "
+        "instead of one per leg (hexcal-temp-0..5)",
     )
     p.set_defaults(
         func=cmd_export,
         inputs=("geometry",),
         outputs=(),
         folders=("out",),
-        folder_files={"out": (*EXPORT_FILES, *COMP_FILES, THERMAL_FILE)},
+        folder_files={"out": lambda args: _export_files(args.target)},
     )
 
     p = sub.add_parser("import", help="a geometry from a controller's configuration (LinuxCNC genhexkins)")
@@ -93,59 +101,29 @@ def _read_text(path: str, what: str) -> str:
 
 
 def cmd_export(args: argparse.Namespace) -> None:
-    """Write ``hexcal-kins.hal`` and ``hexcal-joints.ini`` through the command's output set.
+    """Write a registered controller export's files through the command's output set.
 
-    The two files are declared outputs of the command (``folder_files``): checked before the
-    work like every output (an input, a FIFO, a read-only or hard-linked file is refused; a
-    symbolic link is written through; a replaced file keeps its mode) and committed together.
+    The files are declared outputs of the command (``folder_files``, from the export's record):
+    checked before the work like every output (an input, a FIFO, a read-only or hard-linked file
+    is refused; a symbolic link is written through; a replaced file keeps its mode) and
+    committed together.
     """
-    from hexcal.core.presets import PRESETS
-    from hexcal.io import check_input, load_geometry, write_text
-    from hexcal.io.linuxcnc import euler_warning, export_linuxcnc
+    from hexcal.io import load_geometry, write_text
+    from hexcal.io.exports import controller_export, export_geometry, geometry_source
 
+    controller_export(args.target)  # an unknown controller: one line, before anything is read
     geometry = load_geometry(args.geometry)
-    if args.geometry in PRESETS:
-        source, sha256, date = f"built-in preset {args.geometry}", None, None
-    else:
-        path = Path(args.geometry)
-        check_input(path)
-        data = path.read_bytes()
-        import datetime
-        import hashlib
-
-        sha256 = hashlib.sha256(data).hexdigest()
-        mtime = datetime.datetime.fromtimestamp(path.stat().st_mtime, tz=datetime.UTC)
-        source, date = str(path), mtime.strftime("%Y-%m-%dT%H:%M:%SZ")
-    files = export_linuxcnc(
-        geometry, source=source, source_sha256=sha256, source_date=date, shared_sensor=args.shared_sensor
+    done = export_geometry(
+        args.target, geometry, {"shared_sensor": args.shared_sensor}, **geometry_source(args.geometry)
     )
     folder = Path(args.out)
-    for name, text in files.items():
+    for name, text in done.files.items():
         write_text(folder / name, text)
-    warning = euler_warning(geometry)
-    if warning:
+    print(f"wrote {', '.join(str(folder / name) for name in done.files)}")
+    for line in done.lines:
+        print(line)
+    for warning in done.warnings:
         _warn(warning)
-    print(f"wrote {', '.join(str(folder / name) for name in files)}")
-    print("paste: [HAL] HALFILE = hexcal-kins.hal; the [TRAJ], [JOINT_N], [AXIS_*] keys of hexcal-joints.ini")
-    if COMP_FILES[0] in files:
-        print(
-            f"copy {COMP_FILES[0]} .. {COMP_FILES[-1]} into the machine's configuration folder (the joints' "
-            "COMP_FILE tables of the stroke leg model)"
-        )
-        from hexcal.calibration import workspace_stroke_excess
-
-        beyond = workspace_stroke_excess(geometry)
-        line = beyond.warning("poses of the workspace box (its corners and random poses)") if beyond else None
-        if line:
-            _warn(f"{line}; the tables hold their end trims there, as the model holds its curve")
-    if THERMAL_FILE in files:
-        sensors = "hexcal-temp" if args.shared_sensor else "hexcal-temp-0 .. hexcal-temp-5"
-        print(
-            f"thermal legs: load {THERMAL_FILE} after the machine's HAL file "
-            f"([HAL] HALFILE = {THERMAL_FILE}); "
-            f"drive {sensors} from the legs' temperature sensors (°C) and name the drives' signals "
-            "hexcal-drive-cmd-N and hexcal-drive-fb-N (its header says how)"
-        )
 
 
 def _parse_home(text: str) -> list[float]:

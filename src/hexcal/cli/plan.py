@@ -222,38 +222,87 @@ def cmd_observability(args: argparse.Namespace) -> None:
 # -- candidates and select ---------------------------------------------------------------------
 
 
-def cmd_candidates(args: argparse.Namespace) -> None:
-    """The feasible candidate poses of a ``--candidates`` spec."""
+def _planner_setup(args: argparse.Namespace, geometry: Any) -> Any:
+    """The setup of ``--setup`` when its instrument's own planner plans (its record has one and
+    no ``--candidates`` is given), else None; the planner's options refused when it does not."""
+    from hexcal.cli.ballbar import given_planner_options
+    from hexcal.design.planning import instrument_planner
+    from hexcal.io import load_setup
+
+    setup = None if args.setup is None else load_setup(args.setup).in_euler(geometry.euler)
+    if instrument_planner(setup) is not None and args.candidates is None:
+        return setup
+    given = given_planner_options(args)
+    if given:
+        why = "with --candidates" if args.candidates is not None else "for this setup's instrument"
+        raise CommandError(
+            f"{given[0]} is an option of an instrument's own planner, which does not plan {why}; "
+            f"give a setup with a planner (a ballbar) and no --candidates, or leave {given[0]} out"
+        )
+    return None
+
+
+def _planned_out(args: argparse.Namespace, planned: Any, comment: str) -> None:
+    from hexcal.core.text import printable
     from hexcal.io import write_poses
 
-    if args.ballbar:  # circles of a ballbar (cli/ballbar.py)
-        from hexcal.cli.ballbar import cmd_candidates as circles
+    print("\n".join(printable(line) for line in planned.lines))
+    write_poses(args.out, planned.poses, list(planned.ids), comment=comment)
 
-        return circles(args)
+
+def cmd_candidates(args: argparse.Namespace) -> None:
+    """The feasible candidate poses of a ``--candidates`` spec, or the candidate measurements of
+    the ``--setup``'s instrument by its own planner (a ballbar's circles)."""
+    from hexcal.cli.ballbar import planner_options
+    from hexcal.design.planning import planned_candidates
+    from hexcal.io import write_poses
+
     check_outputs(args.out)
     geometry = load_geometry(args.geometry, args.euler)
-    poses, ids = candidate_spec(args.candidates, geometry, args.seed)
+    setup = _planner_setup(args, geometry)
+    if setup is not None:
+        planned = planned_candidates(geometry, setup, **planner_options(args))
+        _planned_out(args, planned, f"{planned.what} of {args.setup}")
+        print(f"wrote {len(planned.ids)} pose(s) to {args.out}")
+        return
+    spec = args.candidates or "grid"
+    poses, ids = candidate_spec(spec, geometry, args.seed)
     feasible, kept, warning = feasible_candidates(geometry, poses, ids, args.min_distance)
     if warning:
         warn(warning)
-    write_poses(args.out, feasible, kept, comment=f"feasible candidates {args.candidates} (seed {args.seed})")
+    write_poses(args.out, feasible, kept, comment=f"feasible candidates {spec} (seed {args.seed})")
     print(f"wrote {len(kept)} feasible of {len(ids)} candidate pose(s) to {args.out}")
 
 
 def cmd_select(args: argparse.Namespace) -> None:
     """Optimal measurement poses for any instrument, beside the seed paper's strategy and
-    random poses."""
+    random poses; or the ``--setup``'s instrument's own candidates chosen by its planner (a
+    ballbar's circles and pivots)."""
+    from hexcal.cli.ballbar import planner_options
     from hexcal.design import CRITERIA
-    from hexcal.design.planning import plan_selection
+    from hexcal.design.planning import plan_selection, planned_selection
     from hexcal.io import atomic_write, load_instrument, write_poses
     from hexcal.report import render
+    from hexcal.report.jsonout import json_text
 
-    if args.ballbar:  # circles and pivots of a ballbar (cli/ballbar.py)
-        from hexcal.cli.ballbar import cmd_select as choose
-
-        return choose(args)
-    check_outputs(args.out, args.json, args.html)
     geometry = load_geometry(args.geometry, args.euler)
+    setup = _planner_setup(args, geometry)
+    if setup is not None:
+        check_outputs(args.out, args.json)
+        if args.html:
+            raise CommandError(
+                f"--html: the {setup.kind} planner's selection writes the pose file and --json only"
+            )
+        noise = parse_noise(args.noise, choice(args.noise_dist, ("uniform", "normal"), "--noise-dist"))
+        planned = planned_selection(geometry, setup, noise, args.fit, args.circles, **planner_options(args))
+        _planned_out(args, planned, f"hexcal select: {planned.what} of {args.setup}")
+        if args.json:
+            with atomic_write(args.json) as fh:
+                fh.write(json_text(planned.data or {}))
+        print(f"wrote {len(planned.ids)} pose(s) to {args.out}")
+        return
+    args.candidates = args.candidates or "grid"
+    check_outputs(args.out, args.json, args.html)
     instrument = load_instrument(args.setup, geometry.euler)
     criterion = choice(args.criterion, CRITERIA, "--criterion")
     strategy = choice(args.strategy, ("optimal", "paper"), "--strategy")
@@ -317,8 +366,8 @@ def cmd_select(args: argparse.Namespace) -> None:
 
 # -- parser -------------------------------------------------------------------------------------
 def circle_options(p: argparse.ArgumentParser, select: bool = False) -> None:
-    """The ballbar options of ``candidates`` and ``select`` (the work: hexcal.cli.ballbar)."""
-    p.add_argument("--ballbar", metavar="FILE", help="ballbar setup YAML: its circles instead of poses")
+    """The options of an instrument's own planner (a ballbar's circles) of ``candidates`` and
+    ``select`` (parsed in hexcal.cli.ballbar)."""
     p.add_argument(
         "--pivots",
         help="ballbar pivots 'x,y,z;NAME=x,y,z', mm; NAME prefixes the ids (default p1, p2, ...; pivots: "
@@ -328,11 +377,11 @@ def circle_options(p: argparse.ArgumentParser, select: bool = False) -> None:
     p.add_argument("--tilt", type=float, help="ballbar: circles also tilted ± this about x, y (default 8°)")
     p.add_argument("--points", type=int, help="ballbar: points per circle (default 12)")
     p.add_argument("--d0", type=float, help="ballbar: bar reading along the circles, mm (default 0)")
-    needs = {dest: "ballbar" for dest in ("pivots", "planes", "tilt", "points", "d0")}
+    needs = {dest: "setup" for dest in ("pivots", "planes", "tilt", "points", "d0")}
     if select:
         p.add_argument("--circles", type=int, help="ballbar: circles to choose (default 12)")
-        needs["circles"] = "ballbar"
-    p.set_defaults(needs=needs)  # each refused without --ballbar (cli.safety)
+        needs["circles"] = "setup"
+    p.set_defaults(needs=needs)  # each refused without --setup (cli.safety)
 
 
 def register(sub: Any) -> None:
@@ -386,14 +435,21 @@ def register(sub: Any) -> None:
 
     p = sub.add_parser("candidates", help="feasible candidate measurement poses")
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
-    p.add_argument("--candidates", default="grid", help=CANDIDATES_HELP)
+    p.add_argument("--candidates", help=CANDIDATES_HELP + " (default grid)")
+    p.add_argument(
+        "--setup",
+        "--ballbar",
+        metavar="FILE",
+        help="instrument setup YAML: the candidates of its own planner (a ballbar's circles) unless "
+        "--candidates is given",
+    )
     p.add_argument("--out", required=True, help="pose CSV file of the feasible candidates")
     p.add_argument("--min-distance", type=float, help="minimum singularity distance (default 0.05)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--euler", help=EULER_HELP)
     circle_options(p)
     spec = {"input_lists": {"candidates": candidate_files}}  # the files of a spec are inputs
-    p.set_defaults(func=cmd_candidates, inputs=("geometry", "ballbar"), outputs=("out",), folders=(), **spec)
+    p.set_defaults(func=cmd_candidates, inputs=("geometry", "setup"), outputs=("out",), folders=(), **spec)
 
     p = sub.add_parser("select", help="select optimal measurement poses (greedy + exchange)")
     p.add_argument("--geometry", required=True, help=f"nominal {GEOMETRY_HELP}")
@@ -404,7 +460,7 @@ def register(sub: Any) -> None:
         help="D, A, E or O4 (default %(default)s: A-optimal, the closest to the mean absolute error, "
         "as simulate --strategies selected; the default was D before)",
     )
-    p.add_argument("--candidates", default="grid", help=CANDIDATES_HELP)
+    p.add_argument("--candidates", help=CANDIDATES_HELP + " (default grid)")
     p.add_argument("--strategy", default="optimal", help="optimal (default) or paper (n random corners)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", required=True, help="pose CSV file of the selected poses")
@@ -416,12 +472,16 @@ def register(sub: Any) -> None:
     p.add_argument("--min-distance", type=float, help="minimum singularity distance (default 0.05)")
     p.add_argument("--no-exchange", action="store_true", help="greedy selection only")
     p.add_argument("--euler", help=EULER_HELP)
-    p.add_argument("--setup", metavar="FILE", help="instrument setup YAML: poses optimal for it")
+    p.add_argument(
+        "--setup",
+        "--ballbar",
+        metavar="FILE",
+        help="instrument setup YAML: poses optimal for it, or with its own planner (a ballbar's circles) "
+        "and no --candidates, its candidates chosen by that planner",
+    )
     p.add_argument("--fix", nargs="+", metavar="NAME", help="parameters or groups to hold, e.g. frame")
     circle_options(p, select=True)
-    p.set_defaults(
-        func=cmd_select, inputs=("geometry", "setup", "ballbar"), outputs=("out", "json", "html"), **spec
-    )
+    p.set_defaults(func=cmd_select, inputs=("geometry", "setup"), outputs=("out", "json", "html"), **spec)
     p.set_defaults(folders=())
     for name in ("errormap", "observability", "candidates", "select"):
         show_defaults(sub.choices[name])

@@ -306,7 +306,8 @@ def declared_files(args: argparse.Namespace) -> tuple[list[str], list[str], list
       (``--candidates corners+poses.csv`` names ``poses.csv``): inputs too;
     - ``folder_files``: folder option name -> the fixed file names the command writes into
       that folder (``--out DIR`` of ``simulate``: ``DIR/study.json``...): outputs too, so
-      that each is checked (a FIFO, a read-only file, an input) before any work.
+      that each is checked (a FIFO, a read-only file, an input) before any work; or a function
+      of the options giving them (``export``: the chosen controller's files).
 
     ``input_lists`` and ``folder_files`` are consumed (removed from ``args``): they are not
     options, and the reports that list a command's options must not show them.
@@ -320,6 +321,7 @@ def declared_files(args: argparse.Namespace) -> tuple[list[str], list[str], list
     outputs = _names(args, "outputs")
     for dest, names in (folder_files or {}).items():
         if values.get(dest) is not None:
+            names = names(args) if callable(names) else names  # a registry's (an export's files)
             outputs += [os.path.join(os.fspath(values[dest]), name) for name in names]
     return inputs, outputs, _names(args, "folders")
 

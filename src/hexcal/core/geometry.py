@@ -306,14 +306,16 @@ class Geometry:
     def machine_parameters(self, fit: str | Any = DEFAULT_FIT, fix: Any = ()) -> ParameterSet:
         """The machine's :class:`ParameterSet`: blocks ``joints`` and ``legs``, the groups
         ``joints, base, platform`` and the leg model's (``l0, gains, ...``), varied by the
-        groups of ``fit`` less the names in ``fix``."""
+        groups of ``fit`` less the names in ``fix``; units mm, the gains 1, the leg model's
+        terms its own (:meth:`hexcal.core.legs.LegModel.units`)."""
         legs = self.leg_model
         groups = {k: PARAMETER_GROUPS[k] for k in ("joints", "base", "platform")} | legs.groups()
         scales = np.concatenate([np.ones(len(JOINT_NAMES)), legs.scales(self.leg_block())])
         n = len(JOINT_NAMES) + legs.size
         blocks = {"joints": (0, len(JOINT_NAMES)), "legs": (len(JOINT_NAMES), n)}
+        units = ("mm",) * len(JOINT_NAMES) + legs.units()
         full = ParameterSet(
-            self.machine_names(), self.machine_vector(), np.zeros(n, bool), scales, groups, blocks
+            self.machine_names(), self.machine_vector(), np.zeros(n, bool), scales, groups, blocks, units
         )
         return full.select(fit, fix)
 

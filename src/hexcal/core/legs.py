@@ -147,6 +147,19 @@ class LegModel:
         """Solver scales of the extra terms, one per term (default 1 mm)."""
         return np.ones(len(self.terms))
 
+    def term_units(self) -> tuple[str, ...]:
+        """The unit of each extra term (default ``mm``: a term that adds to the length; a
+        model whose term multiplies a power of the reading says so, ``1/mm``)."""
+        return ("mm",) * len(self.terms)
+
+    def units(self) -> tuple[str, ...]:
+        """Units of the block's parameters (order of :meth:`names`): mm for ``l0``, 1 for the
+        gains, the model's own for its terms."""
+        out = ["mm"] * N_LEGS + ["1"] * N_LEGS
+        for unit in self.term_units():
+            out += [unit] * N_LEGS
+        return tuple(out)
+
     def scales(self, block: ArrayLike) -> NDArray[np.float64]:
         """Solver scales of the block's parameters: 1 mm for ``l0``, ``1e-3 |g|`` for a gain,
         the model's own for its terms."""

@@ -6,8 +6,12 @@ and ``s1.x ... s6.z`` (platform joints), then ``legs``, the block of the leg mod
 the linear leg model these are the 48 parameters of the seed paper's model
 (:data:`PARAMETER_NAMES`). An instrument adds its own blocks (an instrument frame, targets
 on the platform, a tool). A :class:`ParameterSet` holds any such list with values, vary
-flags, characteristic scales, groups and blocks, in the spirit of lmfit's ``Parameters``;
-code reaches a block by name (:meth:`ParameterSet.span`), never by position.
+flags, characteristic scales, units, groups and blocks, in the spirit of lmfit's
+``Parameters``; code reaches a block by name (:meth:`ParameterSet.span`), never by position.
+Each parameter's unit (:data:`UNITS`: ``mm``, ``rad``, ``1``, or a leg model's own such as
+``1/mm``) is set where the parameter is made (the machine's blocks here and in
+:mod:`hexcal.core.legs`, an instrument's setup), so that no judgement or report guesses it
+from the name.
 
 Imports numpy and :mod:`hexcal.errors` only.
 
@@ -16,6 +20,8 @@ Imports numpy and :mod:`hexcal.errors` only.
 (48, 41)
 >>> params.groups["l0"]
 ('l0_1', 'l0_2', 'l0_3', 'l0_4', 'l0_5', 'l0_6')
+>>> params["g1"].unit, params["u1.x"].unit
+('1', 'mm')
 """
 
 from __future__ import annotations
@@ -56,6 +62,14 @@ DEFAULT_FIT = "joints,l0"
 #: Leg index (0-based) that each machine parameter belongs to.
 PARAMETER_LEG = np.array([i for i in range(6) for _ in range(3)] * 2 + list(range(6)) * 2, dtype=np.intp)
 
+#: The units hexcal holds parameters in: lengths in mm, angles in rad, ratios (gains) as pure
+#: numbers. A leg model's own terms may carry another unit (``1/mm``); reports show ``rad`` in
+#: degrees.
+UNITS = ("mm", "rad", "1")
+
+#: The unit of each machine parameter of the linear legs (mm for joints and ``l0``, 1 for gains).
+PARAMETER_UNITS: tuple[str, ...] = ("mm",) * 42 + ("1",) * 6
+
 #: Characteristic scale of each machine parameter (mm for joints and l0; gains are
 #: dimensionless, and a gain change of 1e-3 moves a leg by about a millimetre).
 PARAMETER_SCALE = np.concatenate([np.ones(42), np.full(6, 1e-3)])
@@ -68,13 +82,14 @@ MIN_POSES = 7
 
 @dataclass(frozen=True)
 class Parameter:
-    """One named parameter: value, whether it is varied, characteristic scale, group."""
+    """One named parameter: value, whether it is varied, characteristic scale, group, unit."""
 
     name: str
     value: float
     vary: bool = True
     scale: float = 1.0
     group: str = ""
+    unit: str = "mm"
 
 
 def _readonly(values: ArrayLike, dtype: Any) -> NDArray[Any]:
@@ -100,6 +115,9 @@ class ParameterSet:
     blocks : mapping of str to (start, stop), optional
         Named contiguous blocks (``joints``, ``legs``, an instrument's setup): where each
         part of the model finds its values. Default one block ``all``.
+    units : str or sequence of str, optional
+        Each parameter's unit (:data:`UNITS`: ``mm``, ``rad``, ``1``, or a leg model's own),
+        or one unit for all; default ``mm`` for every parameter.
     """
 
     def __init__(
@@ -110,6 +128,7 @@ class ParameterSet:
         scales: ArrayLike | None = None,
         groups: Mapping[str, Sequence[str]] | None = None,
         blocks: Mapping[str, tuple[int, int]] | None = None,
+        units: str | Sequence[str] | None = None,
     ) -> None:
         self.names: tuple[str, ...] = tuple(names)
         n = len(self.names)
@@ -121,6 +140,10 @@ class ParameterSet:
         for what, arr in (("values", self.values), ("vary", self.vary), ("scales", self.scales)):
             if arr.shape != (n,):
                 raise UsageError(f"parameter {what} must have shape ({n},), got {arr.shape}")
+        given = "mm" if units is None else units
+        self.units: tuple[str, ...] = (given,) * n if isinstance(given, str) else tuple(str(u) for u in given)
+        if len(self.units) != n:
+            raise UsageError(f"parameter units: {len(self.units)} for {n} parameters")
         self.groups: dict[str, tuple[str, ...]] = {k: tuple(v) for k, v in (groups or {}).items()}
         self.blocks: dict[str, tuple[int, int]] = (
             {"all": (0, n)} if blocks is None else {k: (int(a), int(b)) for k, (a, b) in blocks.items()}
@@ -141,7 +164,8 @@ class ParameterSet:
         if values.shape != (N_ALL_PARAMETERS,):
             raise UsageError(f"machine parameter values must have shape (48,), got {values.shape}")
         blocks = {"joints": (0, 36), "legs": (36, 48)}
-        base = cls(PARAMETER_NAMES, values, np.zeros(48, bool), PARAMETER_SCALE, PARAMETER_GROUPS, blocks)
+        flags = np.zeros(48, bool)
+        base = cls(PARAMETER_NAMES, values, flags, PARAMETER_SCALE, PARAMETER_GROUPS, blocks, PARAMETER_UNITS)
         return base.select(fit, fix)
 
     def __add__(self, other: ParameterSet) -> ParameterSet:
@@ -165,6 +189,7 @@ class ParameterSet:
             np.concatenate([self.scales, other.scales]),
             groups,
             blocks or None,
+            self.units + other.units,
         )
 
     def span(self, block: str) -> slice:
@@ -200,11 +225,21 @@ class ParameterSet:
 
     def with_values(self, values: ArrayLike) -> ParameterSet:
         """Copy with new values of all parameters."""
-        return ParameterSet(self.names, values, self.vary, self.scales, self.groups, self.blocks)
+        return ParameterSet(self.names, values, self.vary, self.scales, self.groups, self.blocks, self.units)
 
     def with_vary(self, vary: ArrayLike) -> ParameterSet:
         """Copy with new vary flags."""
-        return ParameterSet(self.names, self.values, vary, self.scales, self.groups, self.blocks)
+        return ParameterSet(self.names, self.values, vary, self.scales, self.groups, self.blocks, self.units)
+
+    def renamed(self, prefix: str, blocks: Mapping[str, tuple[int, int]] | None = None) -> ParameterSet:
+        """Copy with ``prefix`` on every name and group name (``session2.frame.x``, group
+        ``session2.frame``), the plain groups kept too (they gather several sets' members once
+        added together); ``blocks`` replace the set's own when given."""
+        names = tuple(prefix + n for n in self.names)
+        groups = {prefix + g: tuple(prefix + n for n in v) for g, v in self.groups.items()}
+        groups |= {g: tuple(prefix + n for n in v) for g, v in self.groups.items()}
+        own = self.blocks if blocks is None else blocks
+        return ParameterSet(names, self.values, self.vary, self.scales, groups, own, self.units)
 
     # -- access -------------------------------------------------------------------------
     def __len__(self) -> int:
@@ -218,7 +253,7 @@ class ParameterSet:
         k = self._index[key] if isinstance(key, str) else int(key)
         group = next((g for g, names in self.groups.items() if self.names[k] in names), "")
         value, vary, scale = float(self.values[k]), bool(self.vary[k]), float(self.scales[k])
-        return Parameter(self.names[k], value, vary, scale, group)
+        return Parameter(self.names[k], value, vary, scale, group, self.units[k])
 
     def __contains__(self, name: object) -> bool:
         return name in self._index
@@ -230,6 +265,15 @@ class ParameterSet:
     def free_names(self) -> tuple[str, ...]:
         """Names of the varied parameters, in order."""
         return tuple(n for n, v in zip(self.names, self.vary, strict=True) if v)
+
+    @property
+    def free_units(self) -> tuple[str, ...]:
+        """Units of the varied parameters, in order."""
+        return tuple(u for u, v in zip(self.units, self.vary, strict=True) if v)
+
+    def unit_of(self) -> dict[str, str]:
+        """Each parameter's unit by name."""
+        return dict(zip(self.names, self.units, strict=True))
 
     @property
     def n_free(self) -> int:
@@ -252,10 +296,10 @@ class ParameterSet:
         return unpack
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
-        """``{name: {"value", "vary", "scale"}}``, JSON-ready."""
+        """``{name: {"value", "vary", "scale", "unit"}}``, JSON-ready."""
         return {
-            n: {"value": float(v), "vary": bool(f), "scale": float(s)}
-            for n, v, f, s in zip(self.names, self.values, self.vary, self.scales, strict=True)
+            n: {"value": float(v), "vary": bool(f), "scale": float(s), "unit": u}
+            for n, v, f, s, u in zip(self.names, self.values, self.vary, self.scales, self.units, strict=True)
         }
 
     def __repr__(self) -> str:

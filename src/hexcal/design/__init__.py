@@ -30,7 +30,10 @@ Public names
   design on per-pose information blocks (D, A, E, O4).
 - ``ballbar_circles``, ``Circles``, ``select_circles``, ``CircleSelection``, ``circle_accuracy``:
   ballbar campaigns (docs/ballbar.md): feasible circles at pivots, the circles and pivots
-  chosen for a machine, and their predicted accuracy (``hexcal candidates/select --ballbar``).
+  chosen for a machine, and their predicted accuracy (``hexcal candidates/select --setup BAR``).
+- ``planned_candidates``, ``planned_selection``, ``PlannedMeasurements``, ``BallbarPlanner``:
+  an instrument's own candidate measurements and their selection, by the planner of its
+  record (:attr:`hexcal.instruments.InstrumentKind.planner`; the ballbar's circles).
 - ``error_maps``, ``ErrorMaps``, ``claims``: pose error maps of parameter errors (the seed
   paper's Figs. 4-9) and the numbers that test its claims.
 
@@ -100,6 +103,11 @@ _NAMES = {
     "numerical_rank": "identifiability",
     "observability_indices": "indices",
     "optimal_poses": "planning",
+    "planned_candidates": "planning",
+    "planned_selection": "planning",
+    "instrument_planner": "planning",
+    "PlannedMeasurements": "candidates",
+    "BallbarPlanner": "ballbar_selection",
     "parameter_error_draws": "pose_errors",
     "plan_selection": "planning",
     "planning_jacobian": "identifiability",
@@ -117,11 +125,13 @@ __all__ = [
     "KINDS",
     "MIN_SINGULARITY_DISTANCE",
     "SCALINGS",
+    "BallbarPlanner",
     "CircleSelection",
     "Circles",
     "ErrorMaps",
     "Feasibility",
     "ObservabilityIndices",
+    "PlannedMeasurements",
     "PoseSelection",
     "PoseSetAnalysis",
     "SelectionResult",
@@ -144,6 +154,8 @@ __all__ = [
     "observability_indices",
     "optimal_poses",
     "plan_selection",
+    "planned_candidates",
+    "planned_selection",
     "select_circles",
     "select_poses",
     "singularity_distance",

@@ -15,6 +15,8 @@ Imports :mod:`hexcal.core`, :mod:`hexcal.estimation`, :mod:`hexcal.calibration` 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -24,9 +26,9 @@ from hexcal.core import (
     as_poses,
     gram_pinv,
     inverse_kinematics,
-    parameter_names,
     scaled_svd,
 )
+from hexcal.core.parameters import PARAMETER_UNITS, select_parameters
 from hexcal.design.identifiability import planning_jacobian
 from hexcal.estimation import residual_covariances
 
@@ -34,13 +36,14 @@ from hexcal.estimation import residual_covariances
 MEAN_ABS_FACTOR = float(np.sqrt(2.0 / np.pi))
 
 
-def length_mean_abs(std: NDArray[np.float64], names: tuple[str, ...]) -> float:
-    """``sqrt(2/π) · mean_k σ_k`` over the length parameters (gains left out), mm.
+def length_mean_abs(std: NDArray[np.float64], units: Sequence[str]) -> float:
+    """``sqrt(2/π) · mean_k σ_k`` over the length parameters (``units`` mm: gains and other
+    units left out), mm.
 
-    >>> round(length_mean_abs(np.array([1.0, 3.0, 1e-3]), ("u1.x", "l0_1", "g1")), 4)
+    >>> round(length_mean_abs(np.array([1.0, 3.0, 1e-3]), ("mm", "mm", "1")), 4)
     1.5958
     """
-    lengths = np.array([not n.startswith("g") for n in names])
+    lengths = np.array([u == "mm" for u in units], dtype=bool)
     return MEAN_ABS_FACTOR * float(np.mean(std[lengths]))
 
 
@@ -118,4 +121,5 @@ def mean_abs_error(covariance: ArrayLike, mask: ArrayLike | None = None) -> floa
     0.0798
     """
     cov = np.asarray(covariance, dtype=float)
-    return length_mean_abs(np.sqrt(np.clip(np.diag(cov), 0.0, None)), parameter_names(mask))
+    units = np.asarray(PARAMETER_UNITS)[select_parameters() if mask is None else np.asarray(mask, dtype=bool)]
+    return length_mean_abs(np.sqrt(np.clip(np.diag(cov), 0.0, None)), tuple(units))

@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hexcal.calibration.accuracy import pose_error_map, predicted_pose_errors
 from hexcal.core import PARAMETER_SCALE, Geometry, NoiseModel, as_poses, parameter_names
+from hexcal.core.parameters import PARAMETER_UNITS
 from hexcal.design.accuracy import least_squares_covariance, length_mean_abs
 from hexcal.design.condition_coverage import ConditionCoverage, condition_coverage
 from hexcal.design.identifiability import as_mask, format_combination, null_space, planning_jacobian
@@ -69,6 +70,8 @@ class PoseSetAnalysis:
         For a leg model that reads the conditions: how much the poses' temperatures and axial
         forces vary, and whether its terms are determined
         (:func:`hexcal.design.condition_coverage.condition_coverage`).
+    units : tuple of str
+        Each parameter's unit, as the parameters were made (mm, rad, 1, a leg model's own).
     """
 
     names: tuple[str, ...]
@@ -90,6 +93,7 @@ class PoseSetAnalysis:
     n_machine: int | None = None
     stroke: StrokeCoverage | None = None
     conditions: ConditionCoverage | None = None
+    units: tuple[str, ...] = ()
 
     @property
     def rank(self) -> int:
@@ -127,6 +131,7 @@ class PoseSetAnalysis:
                 name: {"std_estimator": float(se), "std_bound": float(sb)}
                 for name, se, sb in zip(self.names, self.std_estimator, self.std_bound, strict=True)
             },
+            "units": dict(zip(self.names, self.units or ("mm",) * len(self.names), strict=True)),
         }
         out["condition_number"] = float(self.indices.condition_number)
         out |= {
@@ -234,6 +239,7 @@ def analyse_poses(
     mask = as_mask(mask)
     poses = as_poses(poses).reshape(-1, 6)
     names = parameter_names(mask)
+    units = tuple(np.asarray(PARAMETER_UNITS)[mask])
     scale = PARAMETER_SCALE[mask]
     jac = (
         whitened_jacobian(geometry, poses, noise, mask)
@@ -269,13 +275,14 @@ def analyse_poses(
         not_identifiable=not_identifiable,
         std_bound=std_bound,
         std_estimator=std_est,
-        mean_error_bound=length_mean_abs(std_bound, names),
-        mean_error_estimator=length_mean_abs(std_est, names),
+        mean_error_bound=length_mean_abs(std_bound, units),
+        mean_error_estimator=length_mean_abs(std_est, units),
         test_position_rms=pos_rms,
         test_orientation_rms=rot_rms,
         method=method,
         noise=noise,
         weighted=weighted,
+        units=units,
     )
 
 
@@ -351,7 +358,8 @@ def analyse_instrument(
         if not_identifiable.any():
             pos_rms = np.where(np.any(not_identifiable[rows]), np.inf, pos_rms)
             rot_rms = np.where(np.any(not_identifiable[rows]), np.inf, rot_rms)
-    machine_names = tuple(np.asarray(names)[rows])
+    units = problem.parameters.free_units
+    machine_units = tuple(np.asarray(units)[rows])
     return PoseSetAnalysis(
         names=names,
         n_poses=len(problem),
@@ -360,8 +368,8 @@ def analyse_instrument(
         not_identifiable=not_identifiable,
         std_bound=std,
         std_estimator=std.copy(),
-        mean_error_bound=length_mean_abs(std[rows], machine_names),
-        mean_error_estimator=length_mean_abs(std[rows], machine_names),
+        mean_error_bound=length_mean_abs(std[rows], machine_units),
+        mean_error_estimator=length_mean_abs(std[rows], machine_units),
         test_position_rms=pos_rms,
         test_orientation_rms=rot_rms,
         method="ml",
@@ -372,4 +380,5 @@ def analyse_instrument(
         n_machine=int(rows.sum()),
         stroke=stroke_coverage(geometry, poses),
         conditions=condition_coverage(geometry, poses, covariates, names, not_identifiable),
+        units=units,
     )

@@ -27,10 +27,13 @@ from hexcal.core.noise import require_noise
 from hexcal.core.progress import task
 from hexcal.core.resources import check_memory
 from hexcal.design.ballbar_plan import Circles
+from hexcal.design.candidates import PlannedMeasurements
 from hexcal.errors import InputError
 from hexcal.estimation.gauge import gauge_freedoms, gauge_projector
 from hexcal.estimation.problem import Problem
 from hexcal.estimation.uncertainty import cramer_rao, information_rows, planned_session, projected_jacobian
+from hexcal.instruments.ballbar import BallbarModel
+from hexcal.instruments.registry import complete_instrument
 
 #: Regularisation of the information (relative to its largest diagonal) while a selection is
 #: still rank-deficient: an undetermined direction then costs ``1 / ridge``.
@@ -258,3 +261,86 @@ def circle_accuracy(
         "joint_sigma_mean_mm": float(sigma.mean()),
         **acc,
     }
+
+
+# -- the ballbar's planner (its record's ``planner``: hexcal candidates/select --setup BAR) --------
+
+
+def _pivot_lines(circles: Circles) -> list[str]:
+    return [
+        f"  {circles.pivot_title(k)}: [{', '.join(f'{v:g}' for v in p)}] mm (ids {circles.names[k]}.*)"
+        for k, p in enumerate(circles.pivots)
+    ]
+
+
+class BallbarPlanner:
+    """The ballbar's candidate measurements (circles at pivots, :func:`ballbar_circles`) and
+    their selection (:func:`select_circles`, with :func:`circle_accuracy`), as the planning
+    commands take them through the instrument's record. Options: those of
+    :func:`ballbar_circles` (``pivots``, ``names``, ``planes``, ``tilt`` in rad, ``points``,
+    ``d0``, ``min_distance``) and, to select, ``count`` (circles, default
+    :data:`DEFAULT_CIRCLES`)."""
+
+    def circles(self, geometry: Geometry, setup: Any, **options: Any) -> tuple[Circles, int]:
+        """The feasible circles and how many were left out; refused when none is feasible."""
+        from hexcal.design.ballbar_plan import ballbar_circles
+
+        circles, dropped = ballbar_circles(geometry, setup, **options)
+        if circles.n_circles == 0:
+            raise InputError(f"ballbar: none of the {dropped} circle(s) is feasible for this machine")
+        return circles, dropped
+
+    def candidates(self, geometry: Geometry, setup: Any, **options: Any) -> Any:
+        circles, dropped = self.circles(geometry, setup, **options)
+        lines = [
+            f"{circles.n_circles} feasible ballbar circle(s) of {circles.n_circles + dropped}, at the "
+            "pivots:",
+            *_pivot_lines(circles),
+        ]
+        return PlannedMeasurements(circles.poses, tuple(circles.ids), lines, "ballbar circles")
+
+    def select(
+        self,
+        geometry: Geometry,
+        setup: Any,
+        noise: NoiseModel | None = None,
+        fit: str = "joints,l0",
+        count: int | None = None,
+        **options: Any,
+    ) -> Any:
+        circles, dropped = self.circles(geometry, setup, **options)
+        chosen = select_circles(geometry, circles, DEFAULT_CIRCLES if count is None else count, noise, fit)
+        acc = circle_accuracy(geometry, chosen.circles, noise, fit)
+        used = [int(p) + 1 for p in chosen.pivots_used]
+        lines = [
+            f"{len(chosen.chosen)} ballbar circle(s) chosen of {circles.n_circles} feasible "
+            f"({dropped} infeasible left out), at {len(used)} pivot(s): "
+            f"{', '.join(circles.pivot_title(p - 1) for p in used)}",
+            *(f"  {label}" for label in chosen.circles.labels),
+            *(line for k, line in enumerate(_pivot_lines(circles)) if k + 1 in used),
+            f"predicted after calibration ({acc['circle_poses']} poses, {acc['parameters']} parameters, "
+            f"{acc['gauges']} gauges, rank {acc['rank']}, "
+            f"{'identifiable' if acc['identifiable'] else 'NOT identifiable: choose more circles'}): "
+            f"position RMS {acc['position_rms_mm']:.3g} mm (worst {acc['position_max_mm']:.3g}), orientation "
+            f"RMS {acc['orientation_rms_rad']:.3g} rad; joints and l0 σ mean "
+            f"{acc['joint_sigma_mean_mm']:.3g} mm",
+        ]
+        data = {
+            "circles": [
+                {
+                    "label": label,
+                    "pivot": int(chosen.circles.pivot[k]) + 1,
+                    "pivot_name": circles.names[int(chosen.circles.pivot[k])],
+                }
+                for k, label in enumerate(chosen.circles.labels)
+            ],
+            "pivots": {str(p): [float(v) for v in circles.pivots[p - 1]] for p in used},
+            "accuracy": acc,
+            "criterion_trace_mm2": list(chosen.history),
+        }
+        return PlannedMeasurements(
+            chosen.circles.poses, tuple(chosen.circles.ids), lines, "ballbar circles", data
+        )
+
+
+complete_instrument(BallbarModel.name, planner=BallbarPlanner())

@@ -270,3 +270,16 @@ def check_feasibility(
         distance=distance,
         min_distance=float(min_distance),
     )
+
+
+@dataclass(frozen=True)
+class PlannedMeasurements:
+    """An instrument planner's candidate or chosen measurements: poses ``(m, 6)`` (mm, rad),
+    their ids, the lines that describe them, what they are (``ballbar circles``) and, for a
+    selection, its JSON-ready ``data``."""
+
+    poses: NDArray[np.float64]
+    ids: tuple[str, ...]
+    lines: list[str]
+    what: str = "candidate measurements"
+    data: dict[str, Any] | None = None

@@ -1,6 +1,8 @@
 """Campaign planning as the command line uses it: the A-optimal poses of the boundary grid,
 the poses of the seed paper's strategy, and the predicted accuracy of a pose set beside
-the paper's strategy and random interior poses.
+the paper's strategy and random interior poses; and an instrument's own candidate measurements
+and their selection (:func:`planned_candidates`, :func:`planned_selection`: through the planner
+of its record, :attr:`hexcal.instruments.InstrumentKind.planner`, such as a ballbar's circles).
 
 Imports :mod:`hexcal.core`, :mod:`hexcal.estimation` and the rest of :mod:`hexcal.design`
 (through the packages); returns plain arrays or dataclasses with ``to_dict()``.
@@ -26,10 +28,46 @@ from hexcal.design import (
     random_subsets,
     select_poses,
 )
-from hexcal.errors import SelectionError
+from hexcal.design import ballbar_selection as _ballbar  # noqa: F401  (registers the ballbar's planner)
+from hexcal.design.candidates import PlannedMeasurements
+from hexcal.errors import SelectionError, UsageError
+from hexcal.instruments.registry import kind_of_setup
 
 #: Random pose sets averaged for each comparison strategy.
 COMPARISON_DRAWS = 20
+
+
+def instrument_planner(setup: Any) -> Any:
+    """The planner of a setup's instrument kind, None when it has none (its candidates are then
+    poses of the workspace) or no setup is given."""
+    return None if setup is None else kind_of_setup(setup).planner
+
+
+def _planner(setup: Any, what: str) -> Any:
+    planner = instrument_planner(setup)
+    if planner is None or not hasattr(planner, what):
+        kind = "the full pose" if setup is None else f"a {setup.kind} setup"
+        raise UsageError(f"{kind} has no planner of its own that can {what}: plan poses (--candidates)")
+    return planner
+
+
+def planned_candidates(geometry: Geometry, setup: Any, **options: Any) -> PlannedMeasurements:
+    """The candidate measurements of a setup's instrument by its planner (``options``: the
+    planner's own, such as a ballbar's pivots)."""
+    return _planner(setup, "candidates").candidates(geometry, setup, **options)
+
+
+def planned_selection(
+    geometry: Geometry,
+    setup: Any,
+    noise: NoiseModel | None = None,
+    fit: str = "joints,l0",
+    count: int | None = None,
+    **options: Any,
+) -> PlannedMeasurements:
+    """``count`` of a setup's candidate measurements chosen by its planner for ``geometry``
+    (default the planner's), with its predicted accuracy in ``lines`` and ``data``."""
+    return _planner(setup, "select").select(geometry, setup, noise, fit, count, **options)
 
 
 def optimal_poses(

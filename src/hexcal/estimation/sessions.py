@@ -84,14 +84,6 @@ def session_labels(sessions: Sequence[Session]) -> tuple[str, ...]:
     return tuple(labels)
 
 
-def _prefixed(params: ParameterSet, prefix: str) -> ParameterSet:
-    """A session's instrument parameters with ``prefix`` on every name and group."""
-    names = tuple(prefix + n for n in params.names)
-    groups = {prefix + g: tuple(prefix + n for n in v) for g, v in params.groups.items()}
-    groups |= {g: tuple(prefix + n for n in v) for g, v in params.groups.items()}  # shared groups
-    return ParameterSet(names, params.values, params.vary, params.scales, groups, params.blocks)
-
-
 def _check_model_terms(start: Geometry, params: ParameterSet, groups: Sequence[str], vary: NDArray) -> None:
     """Refuse a leg model asked for (its group in ``fit``) whose terms are all held and all 0:
     the model identified and written would be the linear one under the other model's name."""
@@ -106,6 +98,28 @@ def _check_model_terms(start: Geometry, params: ParameterSet, groups: Sequence[s
             f"the linear one under the {model.name} name; fit its terms (leave --fix {model.name} out), "
             "or use --leg-model linear"
         )
+
+
+def setup_blocks(instruments: Sequence[MeasurementModel]) -> list[ParameterSet]:
+    """Each session's instrument parameters as its block ``setup.{k}`` of a problem; with
+    several sessions their names and groups carry the session's prefix (``session2.``)."""
+    many = len(instruments) > 1
+    out = []
+    for k, inst in enumerate(instruments):
+        own = inst.parameters()
+        out.append(own.renamed(f"session{k + 1}." if many else "", {f"setup.{k}": (0, len(own))}))
+    return out
+
+
+def parameter_units(start: Geometry, instruments: Sequence[MeasurementModel]) -> dict[str, str]:
+    """The unit of every parameter of a problem over sessions of ``instruments`` from ``start``,
+    by name as the problem names it (the machine's, then each session's setup): what its result
+    reports in. Each comes from where the parameter is made (the geometry's leg model, the
+    instrument's setup)."""
+    units = start.machine_parameters(DEFAULT_FIT).unit_of()
+    for own in setup_blocks(instruments):
+        units |= own.unit_of()
+    return units
 
 
 def problem_parameters(
@@ -123,17 +137,11 @@ def problem_parameters(
     (48 for linear legs), or over all, replaces ``fit``.
     """
     machine = start.machine_parameters(DEFAULT_FIT)
-    many = len(sessions) > 1
-    blocks = []
-    for k, session in enumerate(sessions):
-        own = session.instrument.parameters()
-        own = _prefixed(own, f"session{k + 1}.") if many else own
-        blocks.append((f"setup.{k}", own))
+    blocks = setup_blocks([s.instrument for s in sessions])
     params = machine
     held = []
-    for key, own in blocks:
-        sub = ParameterSet(own.names, own.values, own.vary, own.scales, own.groups, {key: (0, len(own))})
-        params = params + sub
+    for own in blocks:
+        params = params + own
         held.append(own.vary)
     instrument_held = np.concatenate([np.ones(len(machine), bool), *held])
     fix = list(fix)
@@ -156,7 +164,7 @@ def problem_parameters(
         # say (hold them with ``fix``)
         fit = DEFAULT_FIT if fit is None else fit
         groups = [g.strip() for g in fit.split(",") if g.strip()] if isinstance(fit, str) else list(fit)
-        instrument_groups = [g for _, own in blocks for g in own.groups if "." not in g]
+        instrument_groups = [g for own in blocks for g in own.groups if "." not in g]
         fit = list(dict.fromkeys([*groups, *instrument_groups]))
         vary = np.array(params.select(fit, fix).vary) & instrument_held
         _check_model_terms(start, params, groups, vary)

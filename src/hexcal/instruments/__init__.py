@@ -10,8 +10,10 @@ Public names
   positions in the instrument's own frame).
 - ``BallbarModel``, ``BallbarSetup``, ``BallbarMeasurements``: the ballbar (one distance per
   pose between a base pivot and a platform ball; docs/ballbar.md), its setup and its data.
-- ``MODELS``, ``instrument_for``, ``full_pose``, ``model_by_name``, ``register_instrument``:
-  instruments by name; the instrument a setup describes.
+- ``InstrumentKind``, ``INSTRUMENTS``, ``register_instrument``, ``unregister_instrument``,
+  ``MODELS``, ``instrument_for``, ``full_pose``, ``model_by_name``: instruments by name, one
+  record per kind (model, setup and its file's key, data class and columns, reader, writer,
+  planner); the instrument a setup describes.
 - ``Setup``, ``SETUP_KEYS``, ``FIXABLE``, ``TARGET_NAME``: the instrument setup (docs/formats.md
   "Setup file"): instrument frame or auto, targets or tool, fixed quantities.
 - ``Measurements``, ``TargetMeasurements``, ``Session``: the data an instrument records and
@@ -43,6 +45,15 @@ _NAMES = {
     "FramedModel": "framed",
     "FullPoseModel": "pose",
     "MODELS": "registry",
+    "INSTRUMENTS": "registry",
+    "InstrumentKind": "registry",
+    "unregister_instrument": "registry",
+    "complete_instrument": "registry",
+    "instrument_kind": "registry",
+    "setup_class_for": "registry",
+    "is_setup": "registry",
+    "kind_of_setup": "registry",
+    "column_unit": "registry",
     "MeasurementModel": "base",
     "Measurements": "data",
     "POSE_SCALES": "setup",
@@ -73,6 +84,7 @@ _NAMES = {
 __all__ = [
     "COVARIATE_COLUMNS",
     "FIXABLE",
+    "INSTRUMENTS",
     "MODELS",
     "SETUP_KEYS",
     "TARGET_NAME",
@@ -82,6 +94,7 @@ __all__ = [
     "Covariates",
     "FramedModel",
     "FullPoseModel",
+    "InstrumentKind",
     "MeasurementModel",
     "Measurements",
     "Registration",
@@ -97,6 +110,7 @@ __all__ = [
     "register_instrument",
     "register_pose_instrument",
     "register_targets",
+    "unregister_instrument",
     "with_conditions",
 ]
 

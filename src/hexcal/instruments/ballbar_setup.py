@@ -134,11 +134,11 @@ class BallbarSetup:
         return np.concatenate([self.pivot, self.ball, [self.length]])
 
     def parameters(self, euler: str | None = None) -> ParameterSet:
-        """Groups ``pivot``, ``ball``, ``length`` (scale 1 mm); ``fixed`` ones not varied."""
+        """Groups ``pivot``, ``ball``, ``length`` (mm, scale 1 mm); ``fixed`` ones not varied."""
         vary = np.array([g not in self.fixed for g in ("pivot",) * 3 + ("ball",) * 3 + ("length",)])
         groups = {"pivot": BALLBAR_NAMES[:3], "ball": BALLBAR_NAMES[3:6], "length": BALLBAR_NAMES[6:]}
         blocks = {"pivot": (0, 3), "ball": (3, 6), "length": (6, 7)}
-        return ParameterSet(BALLBAR_NAMES, self.vector(), vary, np.ones(7), groups, blocks)
+        return ParameterSet(BALLBAR_NAMES, self.vector(), vary, np.ones(7), groups, blocks, "mm")
 
     def with_vector(self, values: ArrayLike, calibration: dict[str, Any] | None = None) -> BallbarSetup:
         values = np.asarray(values, dtype=float)

@@ -73,6 +73,8 @@ def _distinct_targets(targets: dict[Any, Any]) -> None:
 FRAME_NAMES = tuple(f"frame.{k}" for k in POSE_NAMES)
 TOOL_NAMES = tuple(f"tool.{k}" for k in POSE_NAMES)
 POSE_SCALES = np.array([1.0, 1.0, 1.0, ANGLE_SCALE, ANGLE_SCALE, ANGLE_SCALE])
+#: Units of a frame's or a tool's six quantities: a position in mm, angles in rad.
+POSE_UNITS = ("mm", "mm", "mm", "rad", "rad", "rad")
 
 
 def _pose(value: Any, where: str) -> NDArray[np.float64]:
@@ -256,8 +258,9 @@ class Setup:
         return np.concatenate([self.frame_or_identity(), rest])
 
     def parameters(self, euler: str | None = None) -> ParameterSet:
-        """The setup's :class:`ParameterSet`: groups ``frame``, ``targets`` / ``tool``;
-        the quantities in ``fixed`` are not varied. ``euler`` is only checked."""
+        """The setup's :class:`ParameterSet`: groups ``frame``, ``targets`` / ``tool`` (positions
+        in mm, angles in rad); the quantities in ``fixed`` are not varied. ``euler`` is only
+        checked."""
         names = self.names()
         n_rest = len(names) - 6
         scales = np.concatenate([POSE_SCALES, np.ones(n_rest) if self.kind == "targets" else POSE_SCALES])
@@ -268,7 +271,8 @@ class Setup:
             vary[6:] = False
         groups = {"frame": names[:6], self.kind: names[6:]}
         blocks = {"frame": (0, 6), self.kind: (6, len(names))}
-        return ParameterSet(names, self.vector(), vary, scales, groups, blocks)
+        units = POSE_UNITS + (("mm",) * n_rest if self.kind == "targets" else POSE_UNITS)
+        return ParameterSet(names, self.vector(), vary, scales, groups, blocks, units)
 
     def with_vector(self, values: ArrayLike, calibration: dict[str, Any] | None = None) -> Setup:
         """The setup with parameter values ``values`` (order of :meth:`names`)."""

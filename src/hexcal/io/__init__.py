@@ -18,7 +18,8 @@ and leg files), :mod:`~hexcal.io.table_writing` (writing tables), :mod:`~hexcal.
 :mod:`~hexcal.io.covariate_columns` (the covariate columns of any table: time, leg
 temperatures, payload), :mod:`~hexcal.io.sessions` (the readers and writers of each
 instrument's data),
-:mod:`~hexcal.io.gcode` (G-code programs, read and written in blocks).
+:mod:`~hexcal.io.gcode` (G-code programs, read and written in blocks), :mod:`~hexcal.io.exports`
+(controller exports by name).
 Imports every layer below it; only ``io`` and ``cli`` touch files.
 
 Public names
@@ -40,6 +41,9 @@ Public names
 - ``read_matrix``: a pose covariance file (six rows of six numbers).
 - ``write_json``: strict JSON, written atomically.
 - ``import_linuxcnc``, ``export_linuxcnc``: LinuxCNC genhexkins configurations.
+- ``ControllerExport``, ``Exported``, ``EXPORTS``, ``register_export``, ``unregister_export``,
+  ``export_geometry``, ``geometry_source``: controller exports by name, one record each
+  (``hexcal export NAME``; LinuxCNC first).
 - ``read_program``: G-code programs in blocks (``hexcal compensate --gcode``).
 
 Other names of the lazy map below (output sets, atomic writes, YAML limits, the table
@@ -50,6 +54,13 @@ part of the API.
 from hexcal._lazy import attach
 
 _NAMES = {
+    "ControllerExport": "exports",
+    "EXPORTS": "exports",
+    "Exported": "exports",
+    "export_geometry": "exports",
+    "geometry_source": "exports",
+    "register_export": "exports",
+    "unregister_export": "exports",
     "BLOCK_ROWS": "tables",
     "COLUMN_NAMES": "tables",
     "DEFAULT_MAX_ROWS": "inputs",
@@ -139,12 +150,17 @@ _NAMES = {
 __all__ = [
     "COLUMN_NAMES",
     "DEFAULT_MAX_ROWS",
+    "EXPORTS",
     "MEASUREMENT_MAX_ROWS",
     "READERS",
     "WRITERS",
+    "ControllerExport",
+    "Exported",
     "LegData",
     "Table",
+    "export_geometry",
     "export_linuxcnc",
+    "geometry_source",
     "import_linuxcnc",
     "iter_legs",
     "iter_poses",
@@ -162,8 +178,10 @@ __all__ = [
     "read_table",
     "read_target_measurements",
     "read_tool_measurements",
+    "register_export",
     "save_geometry",
     "save_setup",
+    "unregister_export",
     "write_json",
     "write_legs",
     "write_measurements",

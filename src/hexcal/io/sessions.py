@@ -3,10 +3,10 @@
 A session is read from a data file and, optionally, a setup file (without one the file is
 a measurement file of the full pose in the base frame) or the instrument itself. The setup's
 kind names the instrument (:func:`hexcal.instruments.instrument_for`), and the instrument's
-name the reader and writer of its data files here (:data:`READERS`, :data:`WRITERS`): a new
-instrument's files are one reader and one writer added to these (by a line here, or
-``READERS[name] = reader`` from its own module); its instrument is then given as such, since
-a setup file describes targets, a tool or a ballbar.
+record (:class:`hexcal.instruments.InstrumentKind`) the reader and writer of its data files:
+the built-in ones are filled in here (:func:`~hexcal.instruments.complete_instrument`), an
+instrument from outside gives its own in its one registration. :data:`READERS` and
+:data:`WRITERS` are views of the records.
 
 Column maps: a setup's ``columns`` says how the files of its instrument name their columns;
 a map given to :func:`read_session` (the command line's ``--columns``) is merged with it, the
@@ -23,9 +23,8 @@ from pathlib import Path
 from typing import Any
 
 from hexcal.errors import InputError, InputWarning, UsageError
-from hexcal.instruments.ballbar_setup import BallbarSetup
 from hexcal.instruments.base import MeasurementModel, Session
-from hexcal.instruments.registry import instrument_for
+from hexcal.instruments.registry import INSTRUMENTS, complete_instrument, instrument_for, is_setup
 from hexcal.instruments.setup import Setup
 from hexcal.io.ballbar_files import ballbar_reader, write_ballbar_measurements
 from hexcal.io.measurement_files import read_measurements, write_measurements
@@ -57,15 +56,6 @@ def _targets(
     path: Any, instrument: Any, euler: str, delimiter: Any, decimal: Any, columns: Columns = None
 ) -> Any:
     return read_target_measurements(path, instrument.setup, delimiter, decimal, columns)
-
-
-#: The data reader of each instrument, by its registry name.
-READERS: dict[str, Reader] = {
-    "pose": _full_pose,
-    "tool": _tool,
-    "targets": _targets,
-    "ballbar": ballbar_reader,
-}
 
 
 def merge_columns(setup: Columns, given: Columns, where: str = "--columns") -> dict[str, str] | None:
@@ -116,13 +106,38 @@ def _write_ballbar(
     write_ballbar_measurements(path, data, comment=comment)
 
 
-#: The data writer of each instrument, by its registry name.
-WRITERS: dict[str, Writer] = {
-    "pose": _write_poses,
-    "tool": _write_poses,
-    "targets": _write_targets,
-    "ballbar": _write_ballbar,
-}
+for _name, _reader, _writer in (
+    ("pose", _full_pose, _write_poses),
+    ("tool", _tool, _write_poses),
+    ("targets", _targets, _write_targets),
+    ("ballbar", ballbar_reader, _write_ballbar),
+):
+    complete_instrument(_name, reader=_reader, writer=_writer)
+
+
+class _Field(Mapping[str, Any]):
+    """The registered kinds' reader or writer by name (a read-only view of the records)."""
+
+    def __init__(self, field: str) -> None:
+        self._field = field
+
+    def _items(self) -> dict[str, Any]:
+        return {n: getattr(k, self._field) for n, k in INSTRUMENTS.items() if getattr(k, self._field)}
+
+    def __getitem__(self, name: str) -> Any:
+        return self._items()[name]
+
+    def __iter__(self) -> Any:
+        return iter(self._items())
+
+    def __len__(self) -> int:
+        return len(self._items())
+
+
+#: The data reader of each instrument, by its registry name (a view of the records).
+READERS: Mapping[str, Reader] = _Field("reader")
+#: The data writer of each instrument, by its registry name (a view of the records).
+WRITERS: Mapping[str, Writer] = _Field("writer")
 
 
 def load_instrument(
@@ -132,7 +147,7 @@ def load_instrument(
     angles in the Euler sequence ``euler``; an instrument is returned as it is."""
     if isinstance(setup, MeasurementModel):
         return setup
-    if setup is not None and not isinstance(setup, Setup | BallbarSetup):
+    if setup is not None and not is_setup(setup):
         setup = load_setup(setup)
     return instrument_for(None if setup is None else setup.in_euler(euler))
 
@@ -177,8 +192,9 @@ def _setup_missing(
     data: str | os.PathLike[str], delimiter: str | None, decimal: str | None, columns: Columns
 ) -> str | None:
     """The line for a file read as the full pose (no setup) whose columns are another
-    instrument's data: target coordinates (``NAME.x``, ``NAME.y``, ``NAME.z``) or a bar's
-    reading (``d``) beside the legs, and no pose; None otherwise."""
+    instrument's data: target coordinates (``NAME.x``, ``NAME.y``, ``NAME.z``) or the columns
+    of a registered kind (:attr:`InstrumentKind.columns`, a ballbar's ``d``) beside the legs,
+    and no pose; None otherwise."""
     from hexcal.io.table_reading import read_table
 
     try:
@@ -194,11 +210,12 @@ def _setup_missing(
             f"{', ...' if len(targets) > 4 else ''}), not poses: --setup is missing (a setup with "
             "instrument_frame and targets for this file)"
         )
-    if "d" in names:
-        return (
-            f"{data}: the file looks like ballbar readings (column d), not poses: --setup is missing "
-            "(a ballbar setup)"
-        )
+    for kind in INSTRUMENTS.values():
+        if kind.columns and set(kind.columns) <= names:
+            return (
+                f"{data}: the file looks like {kind.label} (column {', '.join(kind.columns)}), not poses: "
+                f"--setup is missing (a {kind.name} setup)"
+            )
     return None
 
 
@@ -228,7 +245,7 @@ def read_sessions(
     sessions = []
     for k, (path, setup) in enumerate(zip(data, setups, strict=True)):
         key = str(setup)
-        if setup is not None and not isinstance(setup, Setup | BallbarSetup | MeasurementModel):
+        if setup is not None and not (is_setup(setup) or isinstance(setup, MeasurementModel)):
             if key not in loaded:
                 loaded[key] = load_setup(setup)
             setup = loaded[key]

@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning, UsageError
 from hexcal.instruments.covariates import COVARIATE_COLUMNS
+from hexcal.instruments.registry import column_unit
 from hexcal.io.table_fast import TableBlock, block_numbers, loadtxt_numbers, strictly_increasing
 
 #: Rows converted (or read, by ``iter_tables``) at a time.
@@ -64,7 +65,7 @@ UNIT_WORDS = {"mm", "rad", "deg", "°", "-", "", "1"}
 KNOWN_UNITS = UNIT_WORDS | {"m", "cm", "dm", "um", "µm", "μm", "nm", "in", "inch", "ft", "mrad", "urad"}
 KNOWN_UNITS |= {"µrad", "degree", "degrees", "grad", "gon", "rev", "revolutions", "turns"}
 KNOWN_UNITS |= {"s", "ms", "min", "h", "kg", "g", "lb", "°c", "degc", "celsius", "k", "kelvin", "°f", "degf"}
-_LENGTHS = re.compile(r"^(x|y|z|d|d?l[1-6]|t[0-9]+\.[xyz]|payload_[xyz])$")
+_LENGTHS = re.compile(r"^(x|y|z|d?l[1-6]|t[0-9]+\.[xyz]|payload_[xyz])$")
 _UNITS = {  # per column kind: the units accepted, and how to say so
     "temperature": ({"°c", "degc", "celsius", ""}, "°C here"),
     "time": ({"s", ""}, "s here"),
@@ -80,7 +81,8 @@ def unit_refused(name: str, unit: str) -> str | None:
     """What column ``name`` (hexcal's name) accepts when a unit row gives it ``unit``, or None."""
     kinds = {c: group if group != "quat" else "none" for group, cs in ORIENTATION_GROUPS.items() for c in cs}
     kinds |= {"time": "time", "payload_kg": "mass"} | dict.fromkeys(COVARIATE_COLUMNS[1:8], "temperature")
-    kind = "length" if _LENGTHS.match(name) else kinds.get(name)
+    own = column_unit(name)  # an instrument kind's own column (a ballbar's d, mm)
+    kind = "length" if _LENGTHS.match(name) or own == "mm" else kinds.get(name)
     if kind is None or unit in _UNITS[kind][0]:
         return None
     return _UNITS[kind][1]

@@ -33,7 +33,7 @@ from hexcal.report.html import (
     to_precision,
     verdict_block,
 )
-from hexcal.report.units import UNIT_WORDS, display, fmt, is_angle, parameter_unit
+from hexcal.report.units import display, fmt, unit_of, unit_word
 
 #: Captions of the identification figures, by figure name.
 IDENTIFICATION_CAPTIONS = {
@@ -210,13 +210,13 @@ def session_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
 
 
 def setup_rows(session: Mapping[str, Any]) -> list[tuple[Any, ...]]:
-    """Rows ``(name, value, std. error, unit)`` of a session's calibrated setup: degrees for
-    the instrument angles, mm otherwise."""
+    """Rows ``(name, value, std. error, unit)`` of a session's calibrated setup, each in the
+    display unit of its own (degrees for angles)."""
     rows = []
     for name, item in session["setup"].items():
         if name in session["varied"]:
-            unit = UNIT_WORDS[parameter_unit(name)]
-            rows.append((name, display(name, item["value"]), display(name, item["stderr"]), unit))
+            held = unit_of(session, name)
+            rows.append((name, display(item["value"], held), display(item["stderr"], held), unit_word(held)))
     return rows
 
 
@@ -260,7 +260,7 @@ def _sessions_section(result: Mapping[str, Any]) -> str:
 
 def parameter_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
     """Rows ``(name, unit, nominal, identified, change, stderr, bound)`` of the parameter
-    table, in the display unit of each parameter (degrees for instrument angles); the
+    table, in the display unit of each parameter (degrees for angles); the
     identified value and the change shown to the precision of the standard error (its two
     significant digits: :func:`hexcal.report.html.to_precision`)."""
     names = result.get("names") or list(result.get("parameters", {}))
@@ -270,11 +270,12 @@ def parameter_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
     for name in names:
         value, nominal = values.get(name), start.get(name)
         change = value - nominal if value is not None and nominal is not None else None
-        shown = [display(name, v) for v in (nominal, value, change, stderr.get(name), bound.get(name))]
+        held = unit_of(result, name)
+        shown = [display(v, held) for v in (nominal, value, change, stderr.get(name), bound.get(name))]
         error = shown[3]
         shown[1], shown[2] = to_precision(shown[1], error), to_precision(shown[2], error)
         shown[3] = to_precision(error, error)
-        rows.append((name, UNIT_WORDS[parameter_unit(name)], *shown))
+        rows.append((name, unit_word(held), *shown))
     return rows
 
 
@@ -339,8 +340,10 @@ def identification_page(report: Mapping[str, Any]) -> str:
     """The page of ``hexcal identify --html``: the verdict (failures first), statistics, noise,
     sessions, parameters, figures, inputs."""
     result = report.get("result", {})
-    angles = any(is_angle(n) for n in result.get("names") or result.get("parameters", {}))
-    units = "Lengths in mm, gains dimensionless" + (", instrument angles in degrees" if angles else "")
+    names = result.get("names") or result.get("parameters", {})
+    held = {unit_of(result, n) for n in names}
+    units = "Lengths in mm, gains dimensionless" + (", angles in degrees" if "rad" in held else "")
+    units += "".join(f", {esc(u)} as held" for u in sorted(held - {"mm", "1", "rad"}))
     sections = [
         _verdict(result),
         section("Fit statistics", key_value_table(fit_statistics(result)), "statistics"),

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from hexcal.calibration.verdict import combination_name
+from hexcal.estimation.sessions import parameter_units
 
 
 def identification_dict(
@@ -26,13 +27,19 @@ def identification_dict(
     ``reduced_chi_square``, ``noise`` as standard deviations with its ``source``, ``rank``,
     ``outliers``...; lengths in mm, angles in rad), after the identification's summary
     (``method``, ``poses``, ``parameters``, ``start``), plus ``noise_implied``: the
-    instrument noise the estimated noise implies (σ and uniform half-widths, or None).
+    instrument noise the estimated noise implies (σ and uniform half-widths, or None), and
+    ``units``: each identified parameter's unit (``mm``, ``rad``, ``1``, a leg model's own) as
+    the library made it, each session's setup with its own ``units`` likewise.
     """
     full = result.to_dict()
     out = {k: full[k] for k in ("method", "poses", "parameters", "start")}
     out |= {k: v for k, v in full.items() if k not in out}
     out["outliers"], out["flagged"] = list(outliers or full["outliers"]), list(flagged or full["flagged"])
     out["noise_implied"] = implied_noise(full["noise"])
+    units = parameter_units(result.start, result.instruments)
+    out["units"] = {n: units[n] for n in result.names}
+    for session, inst in zip(out.get("sessions") or [], result.instruments, strict=False):
+        session["units"] = inst.parameters().unit_of()
     return out
 
 

@@ -68,9 +68,10 @@ def observability_text(data: dict[str, Any], fit: str = "joints,l0") -> str:
     )
     lines.append("Predicted standard deviation per parameter (estimator / bound; gains and angles x1e-3):")
     cells = []
+    units = data.get("units") or {}
     for name, std in data["parameters"].items():
         se, sb = std["std_estimator"], std["std_bound"]
-        k = 1e3 if name.startswith("g") or name.split(".")[-1] in ("a", "b", "c") else 1.0
+        k = 1e3 if units.get(name, "mm") in ("1", "rad") else 1.0  # mrad, and gains x1e-3
         cell = f"{name:>5} {se * k:.3f}/{sb * k:.3f}" if _finite(se) else f"{name:>5}  not identifiable"
         cells.append(cell)
     for start in range(0, len(cells), 6):

@@ -15,7 +15,7 @@ import numpy as np
 from hexcal.core.linalg import RANK_RTOL
 from hexcal.design import describe_value
 from hexcal.report import figures as fig
-from hexcal.report.units import UNIT_WORDS, fmt, parameter_unit
+from hexcal.report.units import display, fmt, unit_of, unit_word
 
 POSES_CAPTION = (
     "The {} poses: positions x–y coloured by z (left), angles a–b coloured by c (right); poses at one "
@@ -107,7 +107,12 @@ def observability_report(
         if key in tests:
             accuracy.append((label, None if tests[key] is None else tests[key] * scale, None))
     params = [
-        (name, v.get("std_estimator"), v.get("std_bound"), UNIT_WORDS[parameter_unit(name)])
+        (
+            name,
+            display(v.get("std_estimator"), unit_of(data, name)),
+            display(v.get("std_bound"), unit_of(data, name)),
+            unit_word(unit_of(data, name)),
+        )
         for name, v in data.get("parameters", {}).items()
     ]
     tables = {

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from hexcal.report.units import display, is_angle, parameter_unit, validation_rows, validation_summaries
+from hexcal.report.units import display, shown_unit, unit_of, validation_rows, validation_summaries
 
 
 def _label(method: str) -> str:
@@ -206,12 +206,12 @@ def noise_lines(data: dict[str, Any]) -> list[str]:
     return lines
 
 
-def _setup_value(name: str, value: float | None) -> tuple[str, str]:
-    """A setup parameter for the report: angles in degrees, lengths in mm."""
-    unit = " deg" if is_angle(name) else " mm"
+def _setup_value(value: float | None, held: str) -> tuple[str, str]:
+    """A setup parameter held in unit ``held`` for the report: angles in degrees."""
+    unit = f" {shown_unit(held)}"
     if value is None or not math.isfinite(value):
         return "n/a", unit
-    return f"{display(name, value):.6f}", unit
+    return f"{display(value, held):.6f}", unit
 
 
 def session_lines(data: dict[str, Any]) -> list[str]:
@@ -255,8 +255,8 @@ def session_lines(data: dict[str, Any]) -> list[str]:
         title = "[[Calibrated setup]]" if len(sessions) == 1 else f"[[Calibrated setup: {s['label']}]]"
         lines += [title, f"    {'name':<10}{'value':>16}{'stderr':>12}"]
         for name, item in s["setup"].items():
-            value, unit = _setup_value(name, item["value"])
-            err, _ = _setup_value(name, item["stderr"])
+            value, unit = _setup_value(item["value"], unit_of(s, name))
+            err, _ = _setup_value(item["stderr"], unit_of(s, name))
             lines.append(f"    {name:<10}{value:>16}{err:>12}{unit}")
     return lines
 
@@ -309,11 +309,13 @@ def identification_text(data: dict[str, Any]) -> str:
     header += f"{'CR bound':>12}" if bound is not None else ""
     lines += ["[[Parameters]]", header + "  unit"]
     for name in names:
+        held = unit_of(data, name)
         start, value, err = data["start"][name], data["parameters"][name], data["stderr"][name]
-        start, value, err = (display(name, _number(v)) for v in (start, value, err))
+        start, value, err = (display(_number(v), held) for v in (start, value, err))
         row = f"    {name:<8}{start:>14.6f}{value:>14.6f}{value - start:>+12.6f}{err:>12.6f}"
-        row += f"{display(name, _number(bound[name])):>12.6f}" if bound is not None else ""
-        lines.append(row + f"  {_UNIT_TEXT[parameter_unit(name)]}")
+        row += f"{display(_number(bound[name]), held):>12.6f}" if bound is not None else ""
+        shown = shown_unit(held)
+        lines.append(row + f"  {_UNIT_TEXT.get(shown, shown)}")
     if bound is not None:
         lines.append(
             "    (stderr: from the fit; CR bound: Cramér–Rao σ of any unbiased estimator under the "

@@ -1,13 +1,15 @@
 """How a parameter is shown to a person: its unit, its value in that unit, and its block.
 
-Results hold lengths in mm, gains as pure numbers and angles in rad; a report shows the
-instrument angles (``frame.a/b/c``, ``tool.a/b/c``) in degrees wherever they appear (text,
-pages, figures), so that one table never says rad where the next says deg. Parameters are
-grouped in the blocks a person thinks in (base joints, platform joints, l0, gains, the
-instrument frame, the tool, the targets), each session's own. Standard library only.
+Results hold lengths in mm, ratios (gains) as pure numbers and angles in rad, and every
+result's dictionary says each parameter's unit as the library set it where the parameter was
+made (``units``: name -> ``mm``, ``rad``, ``1`` or a leg model's own unit; a session's setup
+its own). A report shows angles in degrees wherever they appear (text, pages, figures), so
+that one table never says rad where the next says deg. Parameters are grouped in the blocks a
+person thinks in (base joints, platform joints, l0, gains, the instrument frame, the tool,
+the targets), each session's own. Standard library only.
 
->>> round(display("frame.a", 0.5235987755982988), 9), parameter_unit("frame.a"), parameter_unit("g1")
-(30.0, 'deg', '1')
+>>> round(display(0.5235987755982988, "rad"), 9), shown_unit("rad"), unit_word("1")
+(30.0, 'deg', 'dimensionless')
 >>> block_of("session2.t3.x"), block_of("u4.y")
 ('session 2 targets', 'base joints')
 """
@@ -32,7 +34,7 @@ BLOCK_LABELS = {
     "t": "targets",
 }
 
-#: Unit words of the tables, by unit.
+#: Unit words of the tables, by the unit shown (another unit is its own word).
 UNIT_WORDS = {"mm": "mm", "deg": "deg", "1": "dimensionless"}
 
 
@@ -44,31 +46,30 @@ def _bare(name: str) -> tuple[str, str]:
     return f"session {match.group(1)} ", name[match.end() :]
 
 
-def is_angle(name: str) -> bool:
-    """An instrument angle (``frame.a/b/c``, ``tool.a/b/c``, of any session): held in rad,
-    shown in degrees."""
-    bare = _bare(name)[1]
-    return bare.startswith(("frame.", "tool.")) and bare.rsplit(".", 1)[-1] in ("a", "b", "c")
+def unit_of(data: Mapping[str, Any], name: str) -> str:
+    """The unit of parameter ``name`` in a result's dictionary (its ``units`` mapping, as the
+    library set it); ``mm`` when the dictionary does not say (a length, hexcal's default)."""
+    return str((data.get("units") or {}).get(name, "mm"))
 
 
-def is_gain(name: str) -> bool:
-    """A leg gain (``g1`` ... ``g6``): dimensionless."""
-    return re.fullmatch(r"g\d+", _bare(name)[1]) is not None
+def shown_unit(unit: str) -> str:
+    """The unit a value held in ``unit`` is shown in: ``deg`` for ``rad``, else ``unit``."""
+    return "deg" if unit == "rad" else unit
 
 
-def parameter_unit(name: str) -> str:
-    """The unit a parameter is shown in: ``deg`` (instrument angles), ``1`` (gains) or ``mm``."""
-    if is_angle(name):
-        return "deg"
-    return "1" if is_gain(name) else "mm"
+def unit_word(unit: str) -> str:
+    """The word of a table's unit column for a value held in ``unit`` (``dimensionless`` for
+    1, ``deg`` for rad)."""
+    shown = shown_unit(unit)
+    return UNIT_WORDS.get(shown, shown)
 
 
-def display(name: str, value: Any) -> Any:
-    """A value (or standard error) of parameter ``name`` in its display unit (degrees for
-    instrument angles); None and non-numbers pass through."""
+def display(value: Any, unit: str) -> Any:
+    """A value (or standard error) held in ``unit`` in its display unit (degrees for rad);
+    None and non-numbers pass through."""
     if value is None or isinstance(value, bool) or not isinstance(value, int | float):
         return value
-    return math.degrees(value) if is_angle(name) else value
+    return math.degrees(value) if unit == "rad" else value
 
 
 def block_of(name: str) -> str:

@@ -25,11 +25,11 @@ from hexcal.report.iso_summary import POSE_COLUMNS, after_text, circle_rows, pos
 from hexcal.report.text import expected_lines, registration_lines
 from hexcal.report.units import (
     OWN_NOTE,
-    UNIT_WORDS,
     display,
     has_poses,
     own_rows,
-    parameter_unit,
+    unit_of,
+    unit_word,
     validation_rows,
     validation_summaries,
 )
@@ -193,14 +193,14 @@ def expected_section(expected: Mapping[str, Any] | None, summary: Mapping[str, A
 
 def registration_rows(record: Mapping[str, Any]) -> list[tuple[Any, ...]]:
     """Rows ``(quantity, value, std. error, unit)`` of the re-registration on all the poses
-    (degrees for instrument angles)."""
+    (degrees for angles)."""
     values, stderr = record.get("values") or {}, record.get("stderr") or {}
     return [
         (
             name,
-            display(name, values.get(name)),
-            display(name, stderr.get(name)),
-            UNIT_WORDS[parameter_unit(name)],
+            display(values.get(name), unit_of(record, name)),
+            display(stderr.get(name), unit_of(record, name)),
+            unit_word(unit_of(record, name)),
         )
         for name in record.get("quantities") or []
     ]

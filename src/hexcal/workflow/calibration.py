@@ -110,10 +110,12 @@ class Calibration:
 
     @property
     def units(self) -> dict[str, str]:
-        """Each parameter's unit as its value is held (``mm``, ``rad`` or ``1``), by name."""
-        from hexcal.report.units import is_angle, is_gain
+        """Each parameter's unit as its value is held (``mm``, ``rad``, ``1`` or a leg model's
+        own), by name, as the machine's and each instrument's parameters were made."""
+        from hexcal.estimation.sessions import parameter_units
 
-        return {n: "rad" if is_angle(n) else "1" if is_gain(n) else "mm" for n in self.names}
+        units = parameter_units(self.result.start, self.result.instruments)
+        return {n: units[n] for n in self.names}
 
     @property
     def stderr(self) -> dict[str, float]:

@@ -17,24 +17,28 @@ from typing import Any
 import numpy as np
 from matplotlib.ticker import MaxNLocator
 
-from hexcal.core import PARAMETER_NAMES
+from hexcal.core.parameters import PARAMETER_NAMES, PARAMETER_UNITS
 from hexcal.report.figures.render import legend_outside, log_ticks, note, plain, plt, save_png
-from hexcal.report.units import blocks, parameter_unit
+from hexcal.report.units import blocks, unit_of
 
-#: Per unit: the factor from result units (mm, 1, rad) to the drawn one and its label.
-UNIT_SCALES = {"mm": (1.0, "mm"), "1": (1e3, "×10⁻³"), "deg": (180.0 / math.pi, "deg")}
+#: Per unit a parameter is held in: the factor to the drawn unit and its label (another unit
+#: is drawn as it is).
+UNIT_SCALES = {"mm": (1.0, "mm"), "1": (1e3, "×10⁻³"), "rad": (180.0 / math.pi, "deg")}
 
-#: Panels are drawn in this order of their units.
-UNIT_ORDER = ("mm", "1", "deg")
+#: Panels are drawn in this order of their units (then any other unit, as met).
+UNIT_ORDER = ("mm", "1", "rad")
 
 
 def parameter_axes(
-    names: Sequence[str], height: float = 4.0, per_name: float = 0.2, base: float = 3.0
+    names: Sequence[str], units: Sequence[str], height: float = 4.0, per_name: float = 0.2, base: float = 3.0
 ) -> tuple[Any, list[tuple[Any, np.ndarray, float, str]]]:
-    """A figure with one panel per unit of ``names``: ``(fig, [(ax, indices, scale, unit
-    label), ...])``; each panel's x axis carries its parameters' names."""
-    units = np.array([parameter_unit(n) for n in names])
-    groups = [(u, np.flatnonzero(units == u)) for u in UNIT_ORDER if (units == u).any()]
+    """A figure with one panel per unit of ``names`` (each parameter's ``units`` as held):
+    ``(fig, [(ax, indices, scale, unit label), ...])``; each panel's x axis carries its
+    parameters' names."""
+    held = np.array(list(units), dtype=object)
+    order = [u for u in UNIT_ORDER if u in set(held)]
+    order += list(dict.fromkeys(u for u in held if u not in UNIT_ORDER))
+    groups = [(u, np.flatnonzero(held == u)) for u in order]
     widths = [max(len(idx), 3) for _, idx in groups]
     fig, axes = plt.subplots(
         1,
@@ -45,7 +49,7 @@ def parameter_axes(
     )
     panels = []
     for ax, (unit, idx) in zip(axes[0], groups, strict=True):
-        scale, label = UNIT_SCALES[unit]
+        scale, label = UNIT_SCALES.get(unit, (1.0, unit))
         x = np.arange(len(idx))
         ax.set_xticks(x, [plain(names[k]) for k in idx], rotation=90, fontsize=7)
         ax.set_xlim(-0.7, len(idx) - 0.3)
@@ -65,7 +69,7 @@ def parameter_changes(result: Mapping[str, Any]) -> Any:
     names = list(result.get("names") or result["parameters"])
     change = _values(result, "parameters", names) - _values(result, "start", names)
     err, crb = _values(result, "stderr", names), _values(result, "bound", names)
-    fig, panels = parameter_axes(names)
+    fig, panels = parameter_axes(names, [unit_of(result, n) for n in names])
     for ax, idx, scale, unit in panels:
         x = np.arange(len(idx))
         ax.axhline(0, color="0.6", lw=0.8)
@@ -115,7 +119,7 @@ def parameter_errors_figure(data: Mapping[str, Any]) -> Any:
         ),
         ("boundary", "after: 15 corners", {"color": "C0"}),
     )
-    fig, panels = parameter_axes(names, height=4.5, per_name=0.24, base=3.0)
+    fig, panels = parameter_axes(names, PARAMETER_UNITS[:42], height=4.5, per_name=0.24, base=3.0)
     for ax, idx, scale, unit in panels:
         x = np.arange(len(idx))
         for k, (key, label, style) in enumerate(series):
