@@ -423,10 +423,14 @@ def test_each_fold_fits_with_its_sessions_noise(stroke_session):
 
     nominal, session = stroke_session
     other = NoiseModel(leg=0.01, position=0.01, orientation=1e-5, distribution="normal")
-    assert _session_noises("linear", nominal, [session, session], "ml", None, (), NOISE) == [NOISE, NOISE]
-    assert _session_noises("linear", nominal, [session, session], "ml", None, (), [NOISE, other])[1] is other
+    one = _session_noises("linear", nominal, [session, session], "ml", None, (), NOISE)
+    assert one == ([NOISE, NOISE], None)
+    given = _session_noises("linear", nominal, [session, session], "ml", None, (), [NOISE, other])
+    assert given[0][1] is other and given[1] is None
     with pytest.raises(UsageError, match="2 noise models for 1 sessions"):
         _session_noises("linear", nominal, [session], "ml", None, (), [NOISE, other])
-    learned = _session_noises("stroke:3", nominal, [session], "ml", "joints,l0,gains", (), "auto")
+    learned, whole = _session_noises("stroke:3", nominal, [session], "ml", "joints,l0,gains", (), "auto")
     # the simulated noise (0.005 mm legs) within a fifth, from 120 poses
     assert len(learned) == 1 and abs(learned[0].sigmas[0] / 0.005 - 1) < 0.2
+    # the fit of all the sessions under it comes back (the calibration takes it, not learning again)
+    assert whole.noise_source == "estimated" and whole.noises[0] is learned[0]

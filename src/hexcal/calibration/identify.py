@@ -103,6 +103,7 @@ def estimate(
     verdict: bool | None = None,
     sigma_limit: float | None = None,
     max_change: float | None = None,
+    learned: IdentificationResult | None = None,
     **options: Any,
 ) -> IdentificationResult:
     """Identify the machine from measurement sessions with any registered estimator.
@@ -154,6 +155,10 @@ def estimate(
     max_change : float, optional
         Largest plausible parameter change as a fraction of the machine's size (default
         :data:`hexcal.calibration.verdict.MAX_CHANGE`).
+    learned : IdentificationResult, optional
+        An earlier ``ml`` fit of these same data and parameters with ``noise="auto"`` and no
+        options (the leg-model choice's fit of all the sessions): with ``noise="auto"`` its
+        learned noise and fit are taken instead of learning them again (the same computation).
     **options
         Passed to the estimator (e.g. ``xtol``, ``max_nfev``).
 
@@ -199,7 +204,10 @@ def estimate(
             result, used = robust_fit.result, robust_fit.problem
         else:
             if auto:
-                noise_estimate, ml_fit = _learn_noise(problem, options)
+                if learned is not None and learned.noise_estimate is not None and not options:
+                    noise_estimate, ml_fit = learned.noise_estimate, learned
+                else:
+                    noise_estimate, ml_fit = _learn_noise(problem, options)
                 noise = noise_estimate.noises
                 result = ml_fit if method == "ml" else estimator.fit(problem, noise, **options)
             else:

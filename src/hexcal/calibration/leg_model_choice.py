@@ -187,6 +187,10 @@ class LegModelChoice:
         How much of the held-out predictions lies beyond their training stroke, per kind of
         part (``within``, ``ends``): ``rows``, ``beyond_rows``, ``beyond_share`` and
         ``largest_share_of_stroke`` (:class:`hexcal.core.stroke_legs.StrokeExcess`).
+    learned : dict
+        Per candidate, its fit of all the sessions with the noise learned from them (where the
+        noise was ``auto``): the calibration with the chosen candidate is that same fit, and
+        takes it instead of learning the noise again (not part of the JSON form).
     """
 
     choice: str
@@ -195,6 +199,7 @@ class LegModelChoice:
     folds: int = DEFAULT_FOLDS
     seed: int = 0
     beyond_stroke: dict[str, dict[str, Any]] = field(default_factory=dict)
+    learned: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON form (``leg_model_choice``)."""
@@ -394,6 +399,7 @@ def choose_leg_model(
     kinds = np.array([split.kind for split in splits for _ in split.held])
     scores: dict[str, dict[str, Any]] = {}
     parts: dict[str, np.ndarray] = {}
+    learned: dict[str, Any] = {}
     candidates = list(candidates)
     with task("leg model: cross-validation fits", total=len(candidates) * len(splits)) as step:
         for spec in candidates:
@@ -412,8 +418,9 @@ def choose_leg_model(
                 folds,
                 seed,
                 step,
+                learned,
             )
-    return LegModelChoice(_decide(scores, parts), scheme, scores, folds, seed, beyond)
+    return LegModelChoice(_decide(scores, parts), scheme, scores, folds, seed, beyond, learned)
 
 
 def _score(
@@ -431,15 +438,19 @@ def _score(
     folds: int,
     seed: int,
     step: Any,
+    learned: dict[str, Any],
 ) -> None:
-    """One candidate fitted on every part and judged on what each held out: its ``scores`` and
-    its parts' mean squared leg residuals (``step()`` after each part)."""
+    """One candidate fitted on every part and judged on what each held out: its ``scores``, its
+    parts' mean squared leg residuals (``step()`` after each part) and, where the noise was
+    learned, its fit of all the sessions (``learned``)."""
     from hexcal.calibration.identify import estimate
     from hexcal.calibration.validation import validate
 
     legs, positions, angles, part_mse = [], [], [], []
     n_free = 0
-    noises = _session_noises(spec, start, sessions, method, fit, fix, noise)
+    noises, whole = _session_noises(spec, start, sessions, method, fit, fix, noise)
+    if whole is not None:
+        learned[spec] = whole
     for train, held, _, parents in splits:
         geometry = start_for(spec, start, train)  # the stroke of the training poses
         groups = fit_for(fit, geometry.leg_model)
@@ -478,11 +489,12 @@ def _session_noises(
     fit: Any,
     fix: Iterable[str],
     noise: Any,
-) -> list[Any]:
+) -> tuple[list[Any], Any]:
     """Each session's noise model for the candidate's fits: given (one for all, or one per
     session), or, for ``auto``, learned once from all the sessions with the candidate (an
     estimate of the noise in every fold cost eight times the fit; the noise only weighs the
-    kinds of residual against each other)."""
+    kinds of residual against each other); and that fit of all the sessions (None when the
+    noise was given)."""
     from hexcal.calibration.identify import AUTO, estimate
 
     if isinstance(noise, str) and noise == AUTO:
@@ -491,12 +503,13 @@ def _session_noises(
         whole = estimate(
             geometry, sessions, method, noise=AUTO, fit=groups, fix=fix, with_bound=False, verdict=False
         )
-        return list(whole.noises) if len(whole.noises) == len(sessions) else [whole.noise] * len(sessions)
+        own = list(whole.noises) if len(whole.noises) == len(sessions) else [whole.noise] * len(sessions)
+        return own, whole
     if isinstance(noise, Sequence) and not isinstance(noise, str):
         if len(noise) != len(sessions):
             raise UsageError(f"choose_leg_model: {len(noise)} noise models for {len(sessions)} sessions")
-        return list(noise)
-    return [noise] * len(sessions)
+        return list(noise), None
+    return [noise] * len(sessions), None
 
 
 def _beyond(start: Geometry, splits: list[Split]) -> dict[str, dict[str, Any]]:

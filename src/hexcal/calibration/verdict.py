@@ -308,12 +308,15 @@ def _outlier_reasons(result: Any, problem: Any, noise: Any) -> tuple[list[Reason
 
     if len(problem) != result.n_poses:
         return [], []
+    # both screens start at the fit's solution (the same minimum as from the nominal machine, in
+    # a third of the steps)
+    x0 = (np.asarray(result.values) - problem.full0[problem.mask]) / problem.scale
     try:
-        scores = screen_poses(result.start, problem=problem, noise=noise, studentized=True)
+        scores = screen_poses(result.start, problem=problem, noise=noise, studentized=True, x0=x0)
         # a gross error drags the least-squares-like studentized fit towards itself: the plain
         # screen's score (soft L1, bounded influence) decides a fail too; its false alarms of
         # small campaigns lie near the warning threshold, far below a gross error's
-        plain = screen_poses(result.start, problem=problem, noise=noise)
+        plain = screen_poses(result.start, problem=problem, noise=noise, x0=x0)
     except (HexcalError, ValueError, np.linalg.LinAlgError):  # the screening is advisory
         return [], []
     out = []

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.core.conventions import euler_axes, rotation_and_axes, rotation_matrices
+from hexcal.core.conventions import euler_axes, rotation_and_axes, rotation_matrices, rotations_of
 from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.errors import UsageError
@@ -126,7 +126,9 @@ class ToolModel(FramedModel):
         if self.identity:
             return np.array(poses)
         rot_f, t_f, *_, point, rot, _ = self._frames(setup, poses, euler)
-        return np.concatenate([self._to_instrument(rot_f, t_f, point), matrix_to_euler(rot, euler)], axis=-1)
+        return np.concatenate(
+            [self._to_instrument(rot_f, t_f, point), matrix_to_euler(rot, euler, orthonormal=True)], axis=-1
+        )
 
     def residual(
         self,
@@ -163,16 +165,19 @@ class ToolModel(FramedModel):
         rot_f, t_f, *_, point, rot, _ = frames
         position = self._to_instrument(rot_f, t_f, point) - observed[..., :3]
         if self.orientation == "euler":
-            return np.concatenate([position, _wrap(matrix_to_euler(rot, euler) - observed[..., 3:])], axis=-1)
+            return np.concatenate(
+                [position, _wrap(matrix_to_euler(rot, euler, orthonormal=True) - observed[..., 3:])], axis=-1
+            )
         rot_obs, w_obs = rotation_and_axes(observed[..., 3:], euler)
-        omega = rotation_vectors(rot @ np.swapaxes(rot_obs, -1, -2))
+        batch = rot.shape[:-2]
+        omega = rotations_of(rot @ np.swapaxes(rot_obs, -1, -2)).as_rotvec().reshape(batch + (3,))
         angular = np.linalg.solve(np.swapaxes(w_obs, -1, -2), omega[..., None])[..., 0]
         return np.concatenate([position, angular], axis=-1)
 
     def _angular(self, rot: NDArray[np.float64], euler: str, phi: NDArray[np.float64]) -> NDArray[np.float64]:
         """Euler-angle increments ``W⁻ᵀ φ`` at the predicted orientation for rotations
         ``φ (..., m, 3, k)`` (instrument frame)."""
-        w = euler_axes(matrix_to_euler(rot, euler), euler)
+        w = euler_axes(matrix_to_euler(rot, euler, orthonormal=True), euler)
         return np.linalg.solve(np.swapaxes(w, -1, -2), phi)
 
     def pose_jacobian(
@@ -238,7 +243,7 @@ class ToolModel(FramedModel):
         rp, tp = platform
         rot_t, t_t = frame_transform(values[..., :6], euler)
         moved = np.einsum("...ij,...j->...i", rp, t_t) + tp
-        return np.concatenate([moved, matrix_to_euler(rp @ rot_t, euler)], axis=-1)
+        return np.concatenate([moved, matrix_to_euler(rp @ rot_t, euler, orthonormal=True)], axis=-1)
 
     def register(self, geometry: Geometry, data: Measurements) -> tuple[Any, Registration | None]:
         if not self.setup.auto:
@@ -275,7 +280,7 @@ class ToolModel(FramedModel):
         )
         origin = np.einsum("...mi,...ij->...mj", measured[..., :3] - t_f[..., None, :], rot_f)  # base frame
         position = origin - np.einsum("...mij,...j->...mi", rot_p, t_t)
-        return np.concatenate([position, matrix_to_euler(rot_p, euler)], axis=-1)
+        return np.concatenate([position, matrix_to_euler(rot_p, euler, orthonormal=True)], axis=-1)
 
     def platform_covariance(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], noise: NoiseModel, euler: str

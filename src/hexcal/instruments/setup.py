@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hexcal.core.conventions import POSE_NAMES, check_euler, rotation_matrices
+from hexcal.core.conventions import POSE_NAMES, check_euler, rotation_matrices, rotations_of
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import InputError
 from hexcal.instruments.known_noise import Device, declared_noise, device_for, noise_mapping
@@ -293,7 +293,7 @@ class Setup:
         for what in ("frame", "tool"):
             pose = getattr(self, what)
             if pose is not None:
-                angles = matrix_to_euler(rotation_matrices(pose[3:], self.euler), euler)
+                angles = matrix_to_euler(rotation_matrices(pose[3:], self.euler), euler, orthonormal=True)
                 changes[what] = np.concatenate([pose[:3], angles])
         return replace(self, **changes)
 
@@ -384,8 +384,10 @@ def frame_transform(frame: ArrayLike, euler: str) -> tuple[NDArray[np.float64], 
     return rotation_matrices(frame[..., 3:], euler), frame[..., :3].copy()
 
 
-def matrix_to_euler(matrices: ArrayLike, euler: str) -> NDArray[np.float64]:
-    """Euler angles ``(..., 3)`` of rotation matrices ``(..., 3, 3)`` (scipy's convention)."""
+def matrix_to_euler(matrices: ArrayLike, euler: str, *, orthonormal: bool = False) -> NDArray[np.float64]:
+    """Euler angles ``(..., 3)`` of rotation matrices ``(..., 3, 3)`` (scipy's convention);
+    ``orthonormal``: the matrices are rotations to rounding (products of rotation matrices), not
+    checked (:func:`hexcal.core.conventions.rotations_of`)."""
     import warnings
 
     from scipy.spatial.transform import Rotation  # deferred: slow to import
@@ -394,7 +396,8 @@ def matrix_to_euler(matrices: ArrayLike, euler: str) -> NDArray[np.float64]:
     batch = mats.shape[:-2]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # gimbal lock: the angles are still valid
-        angles = Rotation.from_matrix(mats.reshape(-1, 3, 3)).as_euler(euler)
+        rotations = rotations_of(mats) if orthonormal else Rotation.from_matrix(mats.reshape(-1, 3, 3))
+        angles = rotations.as_euler(euler)
     return angles.reshape(batch + (3,))
 
 
@@ -407,4 +410,4 @@ def transform_frame(frame: ArrayLike, base: tuple[NDArray, NDArray], euler: str)
     rb, tb = base
     new_rot = rot @ np.swapaxes(rb, -1, -2)
     moved = trans - np.einsum("...ij,...j->...i", new_rot, tb)
-    return np.concatenate([moved, matrix_to_euler(new_rot, euler)], axis=-1)
+    return np.concatenate([moved, matrix_to_euler(new_rot, euler, orthonormal=True)], axis=-1)

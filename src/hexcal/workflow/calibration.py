@@ -306,7 +306,9 @@ def calibrate(
         common = dict(
             noise=noise, fit=fit, fix=fix, robust=robust, sigma_limit=sigma_limit, max_change=max_change
         )
-        result = estimate(start, given, method, alpha=alpha, **common, **options)
+        # the choice fitted the chosen model to these sessions with the noise learned: taken
+        learned = choice.learned.get(choice.choice) if choice is not None and method == "ml" else None
+        result = estimate(start, given, method, alpha=alpha, learned=learned, **common, **options)
         step()
         first = None
         if split == AUTO:
