@@ -278,6 +278,13 @@ class CovariateLegs(LegModel):
         )
         return np.concatenate([self.base.term_scales(), own])
 
+    def term_units(self) -> tuple[str, ...]:
+        """The base model's units, then ``mm/K`` (``kt``) or ``1/K`` (``cte``) and ``mm/N``."""
+        own = (["1/K" if self.per_length else "mm/K"] if self.thermal else []) + (
+            ["mm/N"] if self.compliance else []
+        )
+        return (*self.base.term_units(), *own)
+
     # -- the per-pose inputs ------------------------------------------------------------------
     def leg_inputs(
         self, covariates: Any, poses: ArrayLike | None = None, geometry: Any = None, where: str = "the data"

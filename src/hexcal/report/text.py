@@ -312,8 +312,10 @@ def identification_text(data: dict[str, Any]) -> str:
         held = unit_of(data, name)
         start, value, err = data["start"][name], data["parameters"][name], data["stderr"][name]
         start, value, err = (display(_number(v), held) for v in (start, value, err))
-        row = f"    {name:<8}{start:>14.6f}{value:>14.6f}{value - start:>+12.6f}{err:>12.6f}"
-        row += f"{display(_number(bound[name]), held):>12.6f}" if bound is not None else ""
+        # a leg model's own units (mm/K, mm/N, 1/K): values of 1e-5 need significant digits
+        f = ".6f" if shown_unit(held) in _UNIT_TEXT else ".4e"
+        row = f"    {name:<8}{start:>14{f}}{value:>14{f}}{value - start:>+12{f}}{err:>12{f}}"
+        row += f"{display(_number(bound[name]), held):>12{f}}" if bound is not None else ""
         shown = shown_unit(held)
         lines.append(row + f"  {_UNIT_TEXT.get(shown, shown)}")
     if bound is not None:
