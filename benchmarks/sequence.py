@@ -25,32 +25,38 @@ known to about a millimetre, drawn for each campaign):
 
 It measures
 
-1. **false alarms**: ``--campaigns`` clean campaigns per instrument (default 200), their sizes
+1. **false alarms**: ``--campaigns`` clean campaigns per instrument (default 400: none flagged
+   in 400 puts the 95 % interval's upper end below 1 %; the issue asks for 200), their sizes
    taken in turn from 15, 20, 30, 60, 100, 200 and 300 random feasible poses (the ballbar:
    12, 16, 20 and 25 circles, 144 to 300 poses; fewer circles do not determine the machine):
    the share flagged with its exact (Clopper-Pearson) 95 % interval, against the issue's
    target of at most 1 %;
 2. **power**: on 60-pose sessions (the ballbar: 12 circles, 144 poses at one pivot), the
    smallest bump and the smallest drift found (``warn`` or ``fail``, of the right kind) in at
-   least 90 % of ``--power-campaigns`` campaigns (default 50) on a log-spaced grid of sizes. A
+   least 90 % of ``--power-campaigns`` campaigns (default 50) on the log-spaced grid of sizes
+   10^(k/6) mm (a factor 1.47 apart). Each search starts near the threshold (a pilot run's),
+   goes down while a size is found in at least 90 % of its campaigns and up while it is not,
+   until two neighbouring sizes bracket 90 %, then down to a size found in under half. A
    **bump** of size ``t``: at a pose drawn in the middle 60 % of the session the instrument
    moves: its frame (the base frame's pose in the instrument frame) is translated by ``t`` mm
    in a random direction and turned by ``t`` × 0.05 °/mm about a random axis through the
    base's origin (the full pose in the base frame: its readings move so); a ballbar's pivot
    moves ``t`` mm. A **drift** of size ``d``: each leg grows linearly in acquisition order by
-   ``d`` × U(0.5, 1) mm over the session (a sensor error that grows). At the threshold it also
-   prints how often the step is located within ±2 poses of the truth, how often the family is
-   the one that moved, and the reported size against the true one;
+   ``d`` × U(0.5, 1) mm over the session (their true lengths, the readings unchanged). For
+   every size it also prints how often the step is located within ±2 poses of the truth, how
+   often the family named is the one that moved (and which were named), and the reported size
+   over the true one (median and 10-90 %);
 3. **the issue's cases**: a tracker bumped half-way through 60 poses by 2 mm and 0.1° (and
    the 6-DOF tracker and motion capture bumped alike), and legs that grow 0.08-0.15 mm over
    the session: the verdict of :func:`hexcal.calibrate` as given and with ``split="auto"``,
-   and the held-out RMS of the calibrated machine (:func:`hexcal.validate` on 30 held-out
-   poses measured by the same instrument, its frame registered again) against a calibration
-   of the same campaign without the bump.
+   and the held-out RMS of the calibrated machine (:func:`hexcal.validate` on 30 noise-free
+   held-out poses measured by the same instrument, its frame registered again) against a
+   calibration of the same campaign (the same poses and noise) without the change.
 
 Every campaign draws from its own generator (``--seed``; spawned in a fixed order), so the
-figures do not depend on ``--jobs``. About 25 minutes of CPU for the default run (about 0.5 s
-a campaign, a ballbar campaign 1-2 s).
+figures do not depend on ``--jobs``. ``--log FILE`` appends every campaign's record as it
+comes (JSON lines). About 30 minutes of CPU for the default run (0.1-1.5 s a campaign, a
+ballbar campaign 1-3 s).
 """
 
 from __future__ import annotations
@@ -97,6 +103,9 @@ TOOL = np.r_[10.0, -20.0, 80.0, np.deg2rad([5.0, 0.0, 30.0])]
 TARGETS = {"t1": [0.0, 0.0, 60.0], "t2": [150.0, 20.0, 55.0], "t3": [-40.0, 160.0, 70.0]}
 TRACKER_NOISE = NoiseModel(leg=0.005, position=0.015, orientation=2e-4, distribution="normal")
 MOCAP_NOISE = NoiseModel(leg=0.005, position=0.2, orientation=2e-3, distribution="normal")
+#: The held-out poses of the issue's cases are measured without noise: their RMS is the
+#: calibration's error alone.
+QUIET = NoiseModel(leg=0.0, position=0.0, orientation=0.0, distribution="normal")
 
 #: Campaign sizes of the false-alarm runs (poses; the ballbar's in circles of 12 points).
 POSES = (15, 20, 30, 60, 100, 200, 300)
@@ -105,8 +114,9 @@ CIRCLES = (12, 16, 20, 25)
 POWER_POSES, POWER_CIRCLES = 60, 12
 #: A bump's rotation per mm of its translation (deg/mm): 2 mm and 0.1°, the issue's bump.
 DEG_PER_MM = 0.05
-#: The share of campaigns a size must be found in, and the step's location tolerance (poses).
-POWER, LOCATION = 0.9, 2
+#: The share of campaigns a size must be found in, and the step's location tolerance (poses);
+#: the power searches go down to a size found in under HALF of the campaigns.
+POWER, LOCATION, HALF = 0.9, 2, 0.5
 #: The power grid: sizes 10^(k / PER_DECADE) mm (a factor 1.47 apart); a search goes at most
 #: MAX_STEPS sizes from its start.
 PER_DECADE, MAX_STEPS = 6, 8
@@ -155,7 +165,7 @@ BENCHES: dict[str, Bench] = {
               TRACKER_NOISE, "frame", 0.0681, 0.0681),
         Bench("mocap", "motion capture", ToolModel(Setup(FRAME, tool=TOOL, instrument="motion-capture")),
               MOCAP_NOISE, "frame", 1.47, 0.681),
-        Bench("ballbar", "ballbar", None, ballbar_cases.NOISE, "pivot", 0.00681, 0.0215),
+        Bench("ballbar", "ballbar", None, ballbar_cases.NOISE, "pivot", 0.0316, 0.0316),
     )
 }  # fmt: skip
 
@@ -461,9 +471,10 @@ def grid_index(size: float) -> int:
 
 @dataclass
 class Series:
-    """The bracket search of one instrument's bump or drift threshold on the grid: from the
-    start size, down while the size is found in >= 90 % of its campaigns, up while it is not,
-    until two neighbouring sizes bracket 90 %."""
+    """The search of one instrument's bump or drift threshold on the grid: from the start size
+    down while the size is found in >= 90 % of its campaigns, up while it is not, until two
+    neighbouring sizes bracket 90 %; then further down until a size is found in under half of
+    its campaigns (the power curve from 50 % to 90 %)."""
 
     name: str
     kind: str
@@ -486,12 +497,19 @@ class Series:
         return [(self.name, self.kind, size, amount, s) for s in self.cell_seed(self.k).spawn(campaigns)]
 
     def update(self, records: list[dict[str, Any]]) -> None:
-        k = self.k
-        self.records[k] = records
-        self.cells[k] = power_cell(records, BENCHES[self.name])
-        found = self.cells[k]["rate"] >= POWER
-        nxt = k - 1 if found else k + 1
-        if nxt in self.cells or abs(nxt - self.first) > MAX_STEPS:
+        self.records[self.k] = records
+        self.cells[self.k] = power_cell(records, BENCHES[self.name])
+        rate = {k: c["rate"] for k, c in self.cells.items()}
+        found = [k for k in rate if rate[k] >= POWER]
+        if not found:
+            nxt = max(rate) + 1  # nothing found often enough yet: larger
+        elif min(found) - 1 not in rate:
+            nxt = min(found) - 1  # the smallest found: is the next smaller one too?
+        elif rate[min(rate)] >= HALF:
+            nxt = min(rate) - 1  # the curve down to half
+        else:
+            nxt = None
+        if nxt is None or abs(nxt - self.first) > MAX_STEPS:
             self.done = True
         else:
             self.k = nxt
@@ -573,6 +591,7 @@ def power_cell(records: list[dict[str, Any]], bench: Bench) -> dict[str, Any]:
         "amount": records[0]["amount"], "campaigns": n, "failed": len(records) - n,
         "detected": len(hits), "rate": len(hits) / n if n else float("nan"),
         "flagged_any": sum(flagged(r) for r in ok),
+        "found_any_severity": sum(any(f["kind"] == want for f in r["findings"]) for r in ok),
         "located": located if want == "step" else None, "family": right_family, "named": named,
         "size_ratio": {k: [float(np.median(v)), *map(float, np.percentile(v, [10, 90]))]
                        for k, v in ratios.items()},
@@ -607,7 +626,8 @@ def print_power(rows: list[dict[str, Any]]) -> None:
                 )
                 names = ", ".join(f"{k} {v}" for k, v in c["named"].items())
                 extra = f"  {where}family {c['family']}/{c['detected']} ({names}); reported/true {sizes}"
-            print(f"    {c['amount']:<8g} {c['detected']:3d}/{c['campaigns']:<3d} {c['rate']:5.0%}{extra}")
+            print(f"    {c['amount']:<8g} {c['detected']:3d}/{c['campaigns']:<3d} {c['rate']:5.0%} "
+                  f"(with info {c['found_any_severity']:2d}){extra}")  # fmt: skip
         thr = "not bracketed" if row["threshold"] is None else f"{row['threshold']:g} mm"
         print(f"    threshold: {thr}")
 
@@ -621,12 +641,13 @@ CASES = {
 }
 
 
-def _held_out_rms(calibration: Any, held: Session) -> float:
+def _held_out_rms(calibration: Any, held: Session, noise: NoiseModel) -> float:
     """RMS of the held-out instrument values predicted by the calibrated machine (mm; the
-    instrument's frame registered again, cross-validated: :func:`hexcal.validate`)."""
+    instrument's frame registered again, cross-validated, weighted by the instrument's
+    ``noise``: :func:`hexcal.validate`)."""
     import hexcal
 
-    summary = hexcal.validate(calibration.result.geometry, held).summary()
+    summary = hexcal.validate(calibration.result.geometry, held, noise=noise).summary()
     key = next(k for k in ("instrument_target_rms", "instrument_position_rms", "instrument_bar_rms")
                if k in summary)  # fmt: skip
     return float(summary[key])
@@ -655,7 +676,7 @@ def issue_case(task: tuple) -> dict[str, Any]:
         change = Change(-1, None, np.linspace(0, 1, POWER_POSES)[:, None] * per_leg, None)
     held_poses = feasible_poses(nominal, 30, rng)
     held_ids = np.array([f"h{k + 1:02d}" for k in range(30)])
-    held_data = simulate(nominal, true, bench.true, held_poses, bench.noise, rng, held_ids)
+    held_data = simulate(nominal, true, bench.true, held_poses, QUIET, rng, held_ids)  # the truth
     held = Session(held_data, bench.true.as_start(), "held")
     for which, this in (("changed", change), ("clean", None)):
         sim_rng = np.random.default_rng(seed)
@@ -668,19 +689,22 @@ def issue_case(task: tuple) -> dict[str, Any]:
             except (HexcalError, ValueError, np.linalg.LinAlgError) as exc:
                 out[f"{which}/{split}"] = {"error": str(exc)[:300]}
                 continue
-            steps = [r for r in cal.verdict.reasons if r.code in ("step", "drift")]
+            reasons = cal.verdict.reasons
+            steps = [r for r in reasons if r.code in ("step", "drift")]
+            worst = [r for r in reasons if r.severity != "info" and r.code not in ("step", "drift")]
             out[f"{which}/{split or 'as given'}"] = {
                 "status": cal.status,
                 "splits": list(cal.splits),
-                "findings": [f"{r.severity} {r.code}: {r.text}" for r in steps],
-                "held_out_rms_mm": _held_out_rms(cal, held),
+                "findings": [f"{r.severity} {r.code}: {r.message}" for r in steps],
+                "other": [f"{r.severity} {r.code}: {r.message}" for r in worst],
+                "held_out_rms_mm": _held_out_rms(cal, held, bench.noise),
                 "noise": [n.describe() for n in cal.result.noises],
             }
     return out
 
 
 def print_cases(results: list[dict[str, Any]]) -> None:
-    print("\nthe issue's cases (60 poses; held out: 30 poses, the instrument registered again)")
+    print("\nthe issue's cases (60 poses; held out: 30 noise-free poses, the instrument registered again)")
     for title in CASES:
         mine = [r for r in results if r["case"] == title]
         if not mine:
@@ -696,15 +720,15 @@ def print_cases(results: list[dict[str, Any]]) -> None:
                 else:
                     parts.append(f"{key}: {v.get('error', 'not run')}")
             print("    " + "; ".join(parts))
-            finding = r.get("changed/as given", {}).get("findings")
-            if finding:
-                print(f"      {finding[0]}")
+            for key in ("changed/as given", "changed/auto", "clean/as given"):
+                for line in r.get(key, {}).get("findings", []) + r.get(key, {}).get("other", []):
+                    print(f"      {key}: {line}")
 
 
 # -- main --------------------------------------------------------------------------------------
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--campaigns", type=int, default=200, help="clean campaigns per instrument")
+    parser.add_argument("--campaigns", type=int, default=400, help="clean campaigns per instrument")
     parser.add_argument(
         "--power-campaigns", type=int, default=50, help="campaigns per size of the power grid"
     )
