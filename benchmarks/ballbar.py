@@ -34,7 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from hexcal.design.ballbar_plan import ballbar_circles, circle_accuracy, select_circles
+from hexcal.design.ballbar_plan import ballbar_circles
+from hexcal.design.ballbar_selection import circle_accuracy, select_circles
 from hexcal.simulation import simulate_session
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))

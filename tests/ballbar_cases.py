@@ -3,7 +3,7 @@
 The campaign: a bar of 150 mm, its ball 50 mm under the platform's centre, candidate circles
 of 12 points at the seven pivots of :func:`hexcal.design.ballbar_plan.pivot_grid` (planes
 xy, xz and yz, the platform level or tilted by 8° about x or y, both feed directions), of
-which :func:`hexcal.design.ballbar_plan.select_circles` chooses the calibration circles; the
+which :func:`hexcal.design.ballbar_selection.select_circles` chooses the calibration circles; the
 held-out circles are the next best ones at the pivots chosen. The start knows the pivot and
 the ball to about a millimetre and the bar's length to half a millimetre (seeded).
 """
@@ -19,7 +19,8 @@ from hexcal.calibration import estimate
 from hexcal.core import NoiseModel, preset
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, leg_lengths
-from hexcal.design.ballbar_plan import Circles, ballbar_circles, select_circles
+from hexcal.design.ballbar_plan import Circles, ballbar_circles
+from hexcal.design.ballbar_selection import select_circles
 from hexcal.estimation import Problem
 from hexcal.estimation.uncertainty import cramer_rao
 from hexcal.instruments import BallbarModel, BallbarSetup, Session

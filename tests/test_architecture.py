@@ -5,8 +5,10 @@ Layers, lowest first: ``errors`` and ``_lazy`` (anyone may import them), ``core`
 then ``io``, ``workflow`` (the calibration workflow, which writes its result with ``io``) and
 ``cli``. A module may import its own layer and lower ones, never a higher one; no module
 imports a private (underscore) name of another module; there is no import cycle between
-modules (they are split by concept, not by a line count); only the figure module imports
-matplotlib; numpy and scipy stay out of the command line's start-up.
+modules; only the figure module imports
+matplotlib; numpy and scipy stay out of the command line's start-up. Modules are split by
+concept, not by length (issue 29: a line cap split one concept into thirds), so no test counts
+their lines.
 
 Every import counts, wherever it is: at module level (also under ``if`` or ``try``) and
 inside functions, where deferred imports keep start-up light (issue 18: a layer's deferred
@@ -48,6 +50,7 @@ LAYERS = {
     "__init__": 11,
     "__main__": 11,
 }
+
 
 def _modules() -> list[Path]:
     return sorted(SRC.rglob("*.py"))

@@ -1,16 +1,20 @@
-"""Batched identification against the one-at-a-time solver (:mod:`hexcal.estimation.batched`).
+"""Batched identification (:mod:`hexcal.estimation.batched`, the one solver of
+:mod:`hexcal.estimation.levenberg`) against an independent solver, one data set at a time.
 
-The one-at-a-time reference is ``estimate(..., with_bound=False, polish=5)``: scipy's
-Levenberg–Marquardt followed by Gauss–Newton steps, so that it is at its optimum within
-rounding (without them it stops up to about 1e-6 mm short in weak directions of the ``paper``
-cost; see :func:`hexcal.estimation.least_squares.solve_least_squares`). Both solvers then sit
-at the same optimum, and their values must agree to 1e-9 mm.
+The reference is ``scipy.optimize.least_squares`` (Levenberg–Marquardt, MINPACK) on the same
+problem's residual and Jacobian functions (:meth:`Problem.least_squares_functions`, and
+:class:`~hexcal.estimation.likelihood.Projection` for maximum likelihood), followed by
+Gauss–Newton steps, so that it is at its optimum within rounding (without them it stops up to
+about 1e-6 mm short in weak directions of the ``paper`` cost, whose residuals are differences of
+squares of 800 mm). Both solvers then sit at the same optimum, and their values must agree to
+1e-9 mm. ``estimate`` itself (a batch of one) must give the batched values to rounding.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.optimize import least_squares
 
 from hexcal.calibration import estimate
 from hexcal.core.noise import NoiseModel
@@ -25,7 +29,10 @@ from hexcal.estimation.batched import (
     estimate_batch,
     identify_chunk,
 )
-from hexcal.estimation.batched_solver import cholesky_solve
+from hexcal.estimation.gls import residual_weights
+from hexcal.estimation.levenberg import cholesky_solve
+from hexcal.estimation.likelihood import Projection
+from hexcal.estimation.problem import Problem
 from hexcal.instruments.pose import Measurements
 
 #: Agreement demanded with the one-at-a-time solver, mm (gains: dimensionless).
@@ -48,21 +55,63 @@ def random_trials(nominal, true_machine, simulate, trials, m=15, seed=0, noise=N
     return np.stack([d.readings for d in data]), np.stack([d.poses for d in data])
 
 
+def scipy_solve(fun, jac, x, polish=5):
+    """scipy's Levenberg–Marquardt from ``x``, then Gauss–Newton steps (to the optimum within
+    rounding)."""
+    sol = least_squares(fun, x, jac=jac, method="lm", x_scale=1.0, xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    assert sol.status > 0, sol.message
+    x = sol.x
+    for _ in range(polish):
+        step = np.linalg.lstsq(jac(x), -fun(x), rcond=None)[0]
+        x = x + step
+        if np.linalg.norm(step) <= 1e-15 * (1.0 + np.linalg.norm(x)):
+            break
+    return x
+
+
+def scipy_fit(problem, method, noise=None):
+    """The optimum of ``method`` by :func:`scipy_solve` (the reference): the full parameter
+    vector. ``gls``: two fits, the weights at the start and at the first estimate."""
+    x = np.zeros(problem.n_free)
+    if method == "gls":
+        noises = (noise or NoiseModel(),) * len(problem.parts)
+        for _ in range(2):
+            w = residual_weights(problem, problem.unpack(x), noises)
+            x = scipy_solve(*problem.least_squares_functions("length", weights=w), x)
+        return problem.unpack(x)
+    if method == "ml" and np.any(problem.model.covariance(noise or NoiseModel()) != 0):
+        inner = Projection(problem, noise)
+        return problem.unpack(scipy_solve(inner.residuals, inner.jacobian, x))
+    fun, jac = problem.least_squares_functions("paper" if method == "paper" else "length")
+    return problem.unpack(scipy_solve(fun, jac, x))
+
+
 def one_at_a_time(nominal, readings, poses, method, mask=None, noise=None):
-    """Values of the one-at-a-time solver, iterated to its optimum; NaN rows where it fails.
-    The noise is the batched solver's (the seed paper's unless given), not learned."""
-    noise = NoiseModel() if noise is None else noise
+    """Values of the reference solver, one data set at a time; NaN rows where it fails."""
     out = []
     for r, p in zip(readings, poses, strict=True):
+        problem = Problem(nominal, Measurements(p, r), mask=mask)
         try:
-            res = estimate(nominal, Measurements(p, r), method, mask, noise, with_bound=False, polish=5)
-            out.append(res.values)
+            problem.check_rank(problem.leg_jacobian(problem.full0))
+            out.append(scipy_fit(problem, method, noise)[problem.mask])
         except IdentificationError:
             out.append(np.full(int(np.sum(select_parameters() if mask is None else mask)), np.nan))
     return np.array(out)
 
 
-@pytest.mark.parametrize("method", ["paper", "length", "ml"])
+def estimated(nominal, readings, poses, method, mask=None, noise=None):
+    """Values of ``estimate`` (a batch of one), one data set at a time, under the batched
+    solver's noise (the seed paper's unless given; ``estimate`` learns it by default)."""
+    noise = NoiseModel() if noise is None else noise
+    return np.array(
+        [
+            estimate(nominal, Measurements(p, r), method, mask, noise, with_bound=False).values
+            for r, p in zip(readings, poses, strict=True)
+        ]
+    )
+
+
+@pytest.mark.parametrize("method", ["paper", "length", "gls", "ml"])
 def test_batched_equals_one_at_a_time(nominal, true_machine, simulate, method):
     readings, poses = random_trials(nominal, true_machine, simulate, 6, seed=11)
     batch = estimate_batch(nominal, readings, poses, method)
@@ -70,6 +119,9 @@ def test_batched_equals_one_at_a_time(nominal, true_machine, simulate, method):
     assert batch.converged.all(), batch.message
     assert batch.values.shape == (6, 42)
     assert np.max(np.abs(batch.values - ref)) < AGREEMENT
+    # one identification is a batch of one: the same solver, the same values to rounding (as
+    # between chunks of other sizes, test_per_trial_starts_reach_the_same_optimum)
+    assert np.max(np.abs(estimated(nominal, readings, poses, method) - batch.values)) < 1e-10
     # the solution moved far from the start: the comparison is not trivial
     assert np.max(np.abs(batch.values - nominal.to_vector()[:42])) > 0.1
     assert np.all(batch.iterations > 2) and np.all(np.isfinite(batch.cost))
@@ -79,7 +131,7 @@ def test_interior_poses_and_gains(nominal, true_machine, simulate):
     """Random interior poses (a weaker design) and all 48 parameters, leg gains included."""
     mask = select_parameters(fit=("joints", "l0", "gains"))
     readings, poses = random_trials(nominal, true_machine, simulate, 4, m=20, seed=5, interior=True)
-    for method in ("length", "ml"):
+    for method in ("length", "gls", "ml"):
         batch = estimate_batch(nominal, readings, poses, method, mask)
         ref = one_at_a_time(nominal, readings, poses, method, mask)
         assert batch.converged.all(), batch.message
@@ -157,7 +209,7 @@ def test_identify_chunk_and_bad_input(nominal, true_machine, simulate):
     out = identify_chunk(nominal, readings, poses, ("paper", "length"))
     assert set(out) == {"paper", "length"} and out["paper"].shape == (2, 42)
     with pytest.raises(UsageError, match="unknown batched method"):
-        estimate_batch(nominal, readings, poses, "gls")
+        estimate_batch(nominal, readings, poses, "bogus")
     with pytest.raises(UsageError, match="shape"):
         estimate_batch(nominal, readings[0], poses[0])
     with pytest.raises(IdentificationError, match="at least 7"):

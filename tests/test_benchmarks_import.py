@@ -22,7 +22,7 @@ SCRIPTS = sorted(BENCHMARKS.glob("*.py"))
 def test_the_benchmarks_are_found():
     # the parametrised test below would pass vacuously on an empty glob
     names = {p.name for p in SCRIPTS}
-    assert {"run.py", "tracker.py", "batched.py", "scale.py", "scipy_baseline.py"} <= names
+    assert {"run.py", "tracker.py", "batched.py", "scale.py", "scipy_baseline.py", "latency.py"} <= names
 
 
 @pytest.mark.parametrize("path", SCRIPTS, ids=[p.stem for p in SCRIPTS])

@@ -611,3 +611,44 @@ def test_zero_noise_has_one_meaning_and_negative_seeds_are_named(capsys, work, m
         "-1",
     )
     assert "--seed" in line
+
+
+_BLOCKED_POOL = r"""
+import os, sys, threading
+from hexcal.simulation import map_trials
+
+def blocked(definition, idx):
+    os.write(1, f"{os.getpid()}\n".encode())  # one write: the two workers' lines never mix
+    threading.Event().wait()
+
+map_trials(blocked, None, 2, jobs=2, chunk_size=1)
+"""
+
+
+def _no_core_dump() -> None:
+    import resource
+
+    _default_signals()
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGQUIT, signal.SIGUSR1])
+def test_pool_workers_end_when_their_parent_dies_of_a_signal_it_cannot_handle(tmp_path, sig):
+    """A parent killed by SIGKILL (an out-of-memory kill, ``timeout -s KILL``) or by a signal
+    hexcal does not handle cannot stop its pool: its workers, each blocked in a chunk for ever,
+    end all the same (they were re-parented and computed on before). The workers' pids are
+    read from the chunks, the parent is killed, and /proc is polled until they are gone."""
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _BLOCKED_POOL], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL, text=True, preexec_fn=_no_core_dump,
+    )  # fmt: skip
+    workers = {int(proc.stdout.readline()) for _ in range(2)}
+    assert len(workers) == 2 and proc.pid not in workers
+    proc.send_signal(sig)
+    assert proc.wait(timeout=60) == -sig
+    deadline = time.monotonic() + 60
+    while [pid for pid in workers if _alive(pid)] and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert not [pid for pid in workers if _alive(pid)]

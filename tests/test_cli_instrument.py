@@ -146,6 +146,7 @@ def _export_de(text: str) -> str:
     return "\n".join(out) + "\n"
 
 
+@pytest.mark.slow  # fast: test_tables_reading.py's semicolon and decimal-comma tables read the same
 def test_semicolon_decimal_comma_export_reads_the_same(
     campaign: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -164,3 +164,15 @@ def test_as_poses_checks_the_last_axis():
         as_poses(np.zeros(5))
     with pytest.raises(ValueError, match=r"\(\.\.\., 6\)"):
         as_poses(3.0)
+
+
+@pytest.mark.parametrize("euler", ["XYZ", "zyx", "ZXZ", "xzx"])
+def test_rotation_and_axes_in_one_pass_equal_each_alone(euler):
+    """``rotation_and_axes`` (the pose instruments' inner loop) gives exactly
+    ``rotation_matrices`` and ``euler_axes`` of the same angles, for any batch shape."""
+    from hexcal.core.conventions import euler_axes, rotation_and_axes, rotation_matrices
+
+    angles = np.random.default_rng(2).uniform(-3, 3, (4, 5, 3))
+    rot, axes = rotation_and_axes(angles, euler)
+    np.testing.assert_array_equal(rot, rotation_matrices(angles, euler))
+    np.testing.assert_array_equal(axes, euler_axes(angles, euler))

@@ -36,8 +36,11 @@ def test_every_page_of_docs_is_in_a_list_of_the_start_page():
         assert f"\n{other}\n" in index, other
         listed.add(other)
     pages = {p.stem for p in DOCS.glob("*.md")} - {"index"}
-    pages |= {p.relative_to(DOCS).with_suffix("").as_posix() for p in DOCS.glob("*/**/*.md")
-              if p.relative_to(DOCS).parts[0] not in ext.OWN_FOLDERS}
+    pages |= {
+        p.relative_to(DOCS).with_suffix("").as_posix()
+        for p in DOCS.glob("*/**/*.md")
+        if p.relative_to(DOCS).parts[0] not in ext.OWN_FOLDERS
+    }
     pages |= {f"tutorials/{p.stem}" for p in (DOCS / "tutorials").glob("*.md")}
     assert pages <= listed, pages - listed
 
@@ -70,8 +73,7 @@ def load_runner():
 def test_every_shell_or_python_example_runs_or_is_a_template():
     run = load_runner()
     pages = [p for p in DOCS.rglob("*.md") if "_build" not in p.parts]
-    unrun = {p.relative_to(DOCS).as_posix(): run.unrun_examples(p.read_text(encoding="utf-8"))
-             for p in pages}
+    unrun = {p.relative_to(DOCS).as_posix(): run.unrun_examples(p.read_text(encoding="utf-8")) for p in pages}
     assert not {page: lines for page, lines in unrun.items() if lines}
     # the guide pages' command examples do run (the build runs {hexcal-run} blocks)
     for name in ("commands", "ballbar", "instruments", "sessions", "observability", "planning"):
@@ -81,19 +83,49 @@ def test_every_shell_or_python_example_runs_or_is_a_template():
 
 def test_the_check_finds_an_example_that_neither_runs_nor_is_marked():
     run = load_runner()
-    page = "\n".join([
-        "```sh", "hexcal paper", "```",                                    # 1: unmarked
-        "```{code-block} bash", ":caption: x", "hexcal fk", "```",        # 4: unmarked
-        "```{code-block} sh", ":class: template", "hexcal fk", "```",     # 8: template
-        "```{hexcal-run}", ":hide:", "hexcal --version", "```",           # 12: runs
-        "```", "hexcal ik --geometry g.yaml", "```",                      # 16: bare command
-        "```python", "import hexcal", "```",                              # 19: unmarked
-        "```yaml", "units: mm", "```",                                    # data
-        "```", "id,x,y", "```",                                           # data / output
-        "````{code-cell} ipython3", "1 + 1", "````",                      # 28: runs
-    ])
-    assert run.classify(page) == [(1, "unmarked"), (4, "unmarked"), (8, "template"), (12, "run"),
-                                  (16, "unmarked"), (19, "unmarked"), (28, "run")]
+    page = "\n".join(
+        [
+            "```sh",
+            "hexcal paper",
+            "```",  # 1: unmarked
+            "```{code-block} bash",
+            ":caption: x",
+            "hexcal fk",
+            "```",  # 4: unmarked
+            "```{code-block} sh",
+            ":class: template",
+            "hexcal fk",
+            "```",  # 8: template
+            "```{hexcal-run}",
+            ":hide:",
+            "hexcal --version",
+            "```",  # 12: runs
+            "```",
+            "hexcal ik --geometry g.yaml",
+            "```",  # 16: bare command
+            "```python",
+            "import hexcal",
+            "```",  # 19: unmarked
+            "```yaml",
+            "units: mm",
+            "```",  # data
+            "```",
+            "id,x,y",
+            "```",  # data / output
+            "````{code-cell} ipython3",
+            "1 + 1",
+            "````",  # 28: runs
+        ]
+    )
+    assert run.classify(page) == [
+        (1, "unmarked"),
+        (4, "unmarked"),
+        (8, "template"),
+        (12, "run"),
+        (16, "unmarked"),
+        (19, "unmarked"),
+        (28, "run"),
+    ]
     assert run.unrun_examples(page) == [1, 4, 16, 19]
 
 
@@ -106,31 +138,69 @@ def _build(tmp_path, page: str) -> tuple[int, str, str]:
     src.mkdir()
     (src / "conf.py").write_text(
         f"import sys\nsys.path.insert(0, {str(DOCS / '_ext')!r})\n"
-        "extensions = ['myst_parser', 'hexcal_run']\n", encoding="utf-8")
+        "extensions = ['myst_parser', 'hexcal_run']\n",
+        encoding="utf-8",
+    )
     (src / "index.md").write_text(page, encoding="utf-8")
     warnings = tmp_path / "warnings.txt"
-    code = build_main(["-q", "-E", "-W", "--keep-going", "-b", "text", "-w", str(warnings),
-                       str(src), str(tmp_path / "out")])
+    code = build_main(
+        ["-q", "-E", "-W", "--keep-going", "-b", "text", "-w", str(warnings), str(src), str(tmp_path / "out")]
+    )
     out = tmp_path / "out" / "index.txt"
     return code, warnings.read_text(encoding="utf-8"), out.read_text(encoding="utf-8") if out.exists() else ""
 
 
 def test_a_run_block_shows_its_output_and_later_blocks_see_its_files(tmp_path):
-    page = "\n".join(["# t", "", "```{hexcal-run}", ":hide:", "echo 41 > n.txt", "```", "",
-                      "```{hexcal-run}", "---", "expect: |", "  it is 42", "---",
-                      'echo "it is $(( $(cat n.txt) + 1 ))"', "hexcal --version", "```", ""])
+    page = "\n".join(
+        [
+            "# t",
+            "",
+            "```{hexcal-run}",
+            ":hide:",
+            "echo 41 > n.txt",
+            "```",
+            "",
+            "```{hexcal-run}",
+            "---",
+            "expect: |",
+            "  it is 42",
+            "---",
+            'echo "it is $(( $(cat n.txt) + 1 ))"',
+            "hexcal --version",
+            "```",
+            "",
+        ]
+    )
     code, warnings, text = _build(tmp_path, page)
     assert code == 0, warnings
     assert "it is 42" in text and "hexcal " in text and "41 > n.txt" not in text
 
 
-@pytest.mark.parametrize("script, message", [
-    ("hexcal fk --geometry nowhere.yaml --legs none.csv --out x.csv", "the example failed (exit 1)"),
-    ("echo 0.061 mm", "does not contain '0.063 mm'"),
-])
+@pytest.mark.parametrize(
+    "script, message",
+    [
+        ("hexcal fk --geometry nowhere.yaml --legs none.csv --out x.csv", "the example failed (exit 1)"),
+        ("echo 0.061 mm", "does not contain '0.063 mm'"),
+    ],
+)
 def test_a_failing_block_or_a_figure_the_output_lacks_fails_the_build(tmp_path, script, message):
-    page = "\n".join(["# t", "", "```{hexcal-run}", "---", "expect: 0.063 mm", "---", script, "```", "",
-                      "```sh", "hexcal paper", "```", ""])
+    page = "\n".join(
+        [
+            "# t",
+            "",
+            "```{hexcal-run}",
+            "---",
+            "expect: 0.063 mm",
+            "---",
+            script,
+            "```",
+            "",
+            "```sh",
+            "hexcal paper",
+            "```",
+            "",
+        ]
+    )
     code, warnings, _ = _build(tmp_path, page)
     assert code != 0
     assert message in warnings

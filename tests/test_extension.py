@@ -13,7 +13,9 @@ with the toy legs:
 - the bound at the estimate is the bound at the truth (:func:`hexcal.estimation.cramer_rao`);
 - robust fitting leaves out one spoiled observation and only it;
 - validation on held-out observations is at the noise level, the nominal machine far off;
-- a small Monte Carlo study (:func:`hexcal.simulation.run_study`) attains the bound;
+- a small Monte Carlo study (:func:`hexcal.simulation.run_study`) attains the bound, and an
+  estimator registered from outside (with no batched solver of its own) runs in it, one trial at
+  a time, to the built-in one's numbers;
 - the planning analysis (:func:`hexcal.design.analyse_poses`) sees the same rank.
 """
 
@@ -29,7 +31,15 @@ from hexcal.core import NoiseModel, preset, random_poses
 from hexcal.core.geometry import Geometry
 from hexcal.design import analyse_poses
 from hexcal.errors import InputError
-from hexcal.estimation import Problem, apply_convention, cramer_rao, gauge_freedoms
+from hexcal.estimation import (
+    ESTIMATORS,
+    Estimator,
+    Problem,
+    apply_convention,
+    cramer_rao,
+    gauge_freedoms,
+    register,
+)
 from hexcal.instruments import FullPoseModel, Measurements, Session, model_by_name
 from hexcal.io import export_linuxcnc, load_geometry, read_sessions, save_geometry, write_session_data
 from hexcal.simulation import STRATEGIES, instrument_campaign, run_study, simulate_session
@@ -210,6 +220,44 @@ def test_monte_carlo_study_attains_the_bound(case):
     row = cells[0].row()
     assert row["failures"] == 0
     assert abs(row["error_mean"] - row["bound"]) < 5 * row["error_std"] / np.sqrt(trials)
+
+
+def fit_toy_ml(problem, noise=None, **options):
+    """A registered estimator of the tests' own (maximum likelihood under another name), which
+    the batched solvers do not know."""
+    from hexcal.estimation.likelihood import fit_ml
+
+    return fit_ml(problem, noise, **options).replace(method="toy-ml")
+
+
+def test_an_estimator_without_a_batched_solver_runs_in_studies():
+    """A study of the toy ball bar with an estimator registered from outside: no trial fails for
+    want of a batched solver (one at a time instead), and its numbers are the batched ``ml``'s
+    (the same estimator) to the solvers' rounding."""
+    nominal, true = machines("linear")
+    register(
+        Estimator("toy-ml", "maximum likelihood (a test's)", "whitened, 1", "test_extension:fit_toy_ml", True)
+    )
+    try:
+        rows = {
+            method: run_study(
+                nominal,
+                true,
+                methods=(method,),
+                strategies={"interior": STRATEGIES["interior"]},
+                pose_counts=(150,),
+                noises={"toy": NOISE},
+                trials=3,
+                rng=4,
+                campaign=instrument_campaign(instruments("ballbar")[0][0]),
+            )[0].row()
+            for method in ("ml", "toy-ml")
+        }
+    finally:
+        del ESTIMATORS["toy-ml"]
+    assert rows["toy-ml"]["failures"] == 0 == rows["ml"]["failures"]
+    for key in ("error_mean", "error_std", "bound", "position_rms"):
+        assert abs(rows["toy-ml"][key] - rows["ml"][key]) <= 1e-9 * abs(rows["ml"][key]), key
 
 
 def test_planning_sees_what_identification_sees(case):

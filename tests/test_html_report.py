@@ -204,6 +204,7 @@ def test_html_target_refused_up_front(tmp_path: Path, capsys: pytest.CaptureFixt
 # -- pages a person reads (tests/test_report_pages.py builds them) ------------------------------
 
 
+@pytest.mark.slow  # fast: test_report_pages.py::test_hostile_ids_and_names_are_escaped_on_the_pages
 def test_hostile_pages_in_the_browser(browser, tmp_path: Path) -> None:
     """Pose ids like ``<img src=x onerror=...>`` and a geometry named ``<script>...``: no
     dialog, no image, no error; the page shows them as text."""
@@ -222,6 +223,7 @@ def test_hostile_pages_in_the_browser(browser, tmp_path: Path) -> None:
             opened.page.context.close()
 
 
+@pytest.mark.slow  # fast: test_identify_page_in_the_browser, test_report_pages.py's tracker page
 def test_tracker_identify_page_in_the_browser(browser, tmp_path: Path) -> None:
     """A tracker campaign's identify page: sessions, the setup in degrees, every figure drawn."""
     opened = open_report(browser, tracker_identify_page(tmp_path))

@@ -96,7 +96,7 @@ def test_circle_before_and_after(campaign, circle_run):
     assert before["nominal_radius_mm"] == pytest.approx(RADIUS, abs=1e-3)
     # the noise's own G: the same circle judged by the true machine
     s = campaign["circle"]
-    truth = circular_tests(s, {"true": validate(campaign["true"], s)}, campaign["nominal"].euler)["true"]
+    truth = circular_tests(s, {"true": validate(campaign["true"], s)})["true"]
     for run_name in ("ccw", "cw"):
         g_before = before["runs"][run_name]["circular_deviation_mm"]
         g_after = after["runs"][run_name]["circular_deviation_mm"]
@@ -144,11 +144,36 @@ def test_the_option_refuses_other_instruments(campaign, capsys):
     assert code != 0 and "give --iso9283" in err
 
 
-def test_a_free_ball_bar_is_refused(campaign, capsys):
+def test_a_free_ball_bar_is_re_registered_after_and_held_before(campaign, circle_run, capsys):
+    # the calibration was on full poses (no gauge convention: its frames are the set-up's), so
+    # the fixed bar is used as given after calibration; the free one is re-registered after (as
+    # validate does) and held as given before (re-registering it on the nominal machine would
+    # absorb the centre offset the test shows)
     tmp = campaign["tmp"]
-    code, _, err = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--data",
-                       tmp / "circle.csv", "--setup", tmp / "free-ballbar.yaml", "--iso230-4")  # fmt: skip
-    assert code != 0 and "must fix its quantities" in err
+    fixed = circle_run[1]["iso"]
+    assert fixed["after_setup"] == {"setup": "as given", "calibrated_setup": False, "frames": "set-up"}
+    code, out, err = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--nominal",
+                         tmp / "nominal.yaml", "--data", tmp / "circle.csv", "--setup",
+                         tmp / "free-ballbar.yaml", "--iso230-4", "--json", tmp / "free.json")  # fmt: skip
+    assert code == 0, err
+    free = json.loads((tmp / "free.json").read_text())["iso"]
+    assert free["after_setup"]["setup"] == "re-registered" and "pivot.x" in free["after_setup"]["quantities"]
+    assert json.dumps(free["iso230_4"]["nominal"]) == json.dumps(fixed["iso230_4"]["nominal"])
+    g_fixed = fixed["iso230_4"]["calibrated"]["bidirectional_circular_deviation_mm"]
+    g_free = free["iso230_4"]["calibrated"]["bidirectional_circular_deviation_mm"]
+    assert g_free == pytest.approx(g_fixed, rel=0.2)  # the shape of the noise, either way
+    assert "re-registered on this session" in out
+
+
+def test_a_visit_tolerance_that_joins_distinct_poses_is_refused(campaign, capsys):
+    # issue 31: --visit-tolerance 1e9 made 20 distinct poses one, with RP 368 mm
+    tmp = campaign["tmp"]
+    for tolerance in ("1e9", "0.5"):
+        code, _, err = run(capsys, "validate", "--geometry", tmp / "calibrated.yaml", "--data",
+                           tmp / "cal.csv", "--iso9283", "--visit-tolerance", tolerance,
+                           "--json", tmp / "tol.json")  # fmt: skip
+        assert code != 0 and "joins distinct poses" in err and len(err.strip().splitlines()) == 1
+        assert not (tmp / "tol.json").exists()
 
 
 def test_iso9283_on_repeated_visits(campaign, capsys):

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from hexcal.calibration import circular_test, pose_statistics, repeated_visits
+from hexcal.calibration.iso_poses import check_visits
 from hexcal.calibration.iso_tests import circle_plane, lsc_circle, progression
 from hexcal.errors import InputError
 
@@ -185,3 +186,36 @@ def test_repeated_visits_with_one_leg_always_alike():
     r[1::2, 2] += 0.004
     groups = repeated_visits(r, 0.005)
     assert groups.tolist() == (np.arange(100) // 2).tolist()
+
+
+def test_points_commanded_on_the_circle():
+    # positions 0.5 mm outside the circle at 0° and 180° (an oval of commanded positions, the
+    # actual path of another machine): with on_circle the actual radius is R0 + d, so zero
+    # deviations are a perfect circle, G = 0 and F = 0, whatever the positions' own shape
+    t = np.arange(0, 360, 30.0)
+    q = ring(t) * (1 + 0.005 * np.cos(np.radians(2 * t)))[:, None]
+    off = circular_test(q, np.zeros(12), direction=np.ones(12))
+    on = circular_test(q, np.zeros(12), direction=np.ones(12), on_circle=True)
+    assert off.runs["ccw"].g == pytest.approx(1.0, abs=1e-9)  # 100.5 - 99.5
+    assert on.runs["ccw"].g == pytest.approx(0, abs=1e-12)
+    assert on.runs["ccw"].f_max == pytest.approx(0, abs=1e-12)
+    # 5 mm out of round (5 % of the radius): no commanded circle (1 %), but positions that only
+    # locate the points (a machine's path) may be that far off (10 %)
+    oval = ring(t) * (1 + 0.05 * np.cos(np.radians(2 * t)))[:, None]
+    with pytest.raises(InputError, match="commanded positions are no circle"):
+        circular_test(oval, np.zeros(12), direction=np.ones(12))
+    assert circular_test(oval, np.zeros(12), direction=np.ones(12), on_circle=True).runs["ccw"].g < 1e-12
+
+
+def test_a_tolerance_that_chains_distinct_poses_is_refused():
+    # rows 0, 1, 2 chain at 0.01 (0.008 apart in turn) but rows 0 and 2 read 0.016 apart: no
+    # visits of one pose; a tolerance beyond 0.1 mm joins distinct poses whatever the data
+    r = np.zeros((4, 6))
+    r[1, 0], r[2, 0], r[3] = 0.008, 0.016, 5.0
+    visits = repeated_visits(r, 0.01)
+    assert visits.tolist() == [0, 0, 0, 1]
+    with pytest.raises(InputError, match=r"pose a read legs up to 0\.016 mm apart"):
+        check_visits(r, visits, 0.01, ("a", "b", "c", "d"))
+    check_visits(r, repeated_visits(r, 0.02), 0.02)  # within 0.02 of each other: one pose
+    with pytest.raises(InputError, match=r"between 0 and 0\.1 mm, got 1e\+09"):
+        repeated_visits(r, 1e9)

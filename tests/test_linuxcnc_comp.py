@@ -1,8 +1,11 @@
 """Joint compensation tables of a stroke leg model (``hexcal.io.linuxcnc_comp``), without LinuxCNC.
 
 - the tables are exact at their entries (trim = l0 + g dl - l(dl)) and within their stated
-  interpolation error between them (checked against the model's own inverse), with the home
-  switch (reading 0) inside;
+  interpolation error between them (checked against the model's own inverse); their ends are
+  the stroke's, and beyond them the end trims held (LinuxCNC's rule) are the model's own
+  continuation, exactly, the home switch (reading 0, outside the stroke) included;
+- a table of another stroke (an older export widened to reading 0) is fitted on its points on
+  the stroke and the disagreement of the others named;
 - ``export linuxcnc`` of a stroke geometry writes six numbers-only tables and the INI keys, and
   ``import linuxcnc`` reads them back into the same leg model (terms to 1e-9 mm), also from
   ``COMP_FILE_TYPE = 0`` tables; a linear geometry writes no table;
@@ -21,11 +24,19 @@ from hypothesis import strategies as st
 from hexcal.cli.main import main
 from hexcal.core import preset
 from hexcal.core.kinematics import leg_lengths
-from hexcal.core.stroke_legs import StrokeLegs
+from hexcal.core.legs import LinearLegs
+from hexcal.core.stroke_legs import StrokeLegs, legendre_values
 from hexcal.errors import HexcalError
 from hexcal.io import load_geometry, save_geometry
 from hexcal.io.linuxcnc import LinuxCNCFormatError
-from hexcal.io.linuxcnc_comp import COMP_FILES, MAX_ENTRIES, comp_tables, parse_comp_table
+from hexcal.io.linuxcnc_comp import (
+    COMP_FILES,
+    MAX_ENTRIES,
+    CompTable,
+    comp_tables,
+    parse_comp_table,
+    stroke_from_tables,
+)
 from test_io_properties import SETTINGS, mutated
 
 TERMS = np.random.default_rng(3).uniform(-0.2, 0.2, (6, 3))
@@ -46,17 +57,22 @@ def test_tables_are_exact_at_entries_and_within_their_error_between():
     geometry = stroke_geometry()
     tables = comp_tables(geometry)
     model, block = geometry.leg_model, geometry.leg_block()
+    ends = leg_lengths(geometry, np.array([[20.0] * 6, [495.0] * 6]))
     for leg, table in enumerate(tables):
         assert 9 <= len(table.nominal) <= MAX_ENTRIES and np.all(np.diff(table.nominal) > 0)
-        # reading 0 (the home switch) lies inside: the stroke [20, 495] was widened to [0, 495]
-        assert table.nominal[0] == pytest.approx(leg_lengths(geometry, np.zeros(6))[leg], abs=1e-12)
-        lengths = np.linspace(table.nominal[0], table.nominal[-1], 1001)
-        full = np.broadcast_to(lengths[:, None], (1001, 6)).copy()
-        dl = model.readings(block, full)[:, leg]  # the model's inverse
-        exact = geometry.initial_leg_lengths[leg] + geometry.leg_gains[leg] * dl - lengths
-        assert (
-            np.max(np.abs(np.interp(lengths, table.nominal, table.trim) - exact)) <= table.max_error + 1e-12
-        )
+        # the stroke's ends are the table's: the home switch (reading 0) lies beyond it
+        np.testing.assert_allclose(table.nominal[[0, -1]], ends[:, leg], rtol=0, atol=1e-12)
+        # from reading -100 to 700: LinuxCNC holds the end trims beyond the table (as np.interp
+        # does), which is the model's continuation: exact there, within the stated error on it
+        dl = np.linspace(-100.0, 700.0, 4001)
+        lengths = leg_lengths(geometry, np.broadcast_to(dl[:, None], (4001, 6)))[:, leg]
+        full = np.broadcast_to(lengths[:, None], (4001, 6)).copy()
+        back = model.readings(block, full)[:, leg]  # the model's inverse
+        exact = geometry.initial_leg_lengths[leg] + geometry.leg_gains[leg] * back - lengths
+        error = np.abs(np.interp(lengths, table.nominal, table.trim) - exact)
+        beyond = (dl < 20.0) | (dl > 495.0)
+        assert np.max(error[~beyond]) <= table.max_error + 1e-12
+        assert np.max(error[beyond]) <= 1e-9
         assert table.max_error <= 1e-3
 
 
@@ -90,6 +106,23 @@ def test_export_and_import_round_trip(capsys, tmp_path):
     assert back.leg_model == geometry.leg_model
     np.testing.assert_allclose(back.leg_terms, geometry.leg_terms, rtol=0, atol=1e-9)
     np.testing.assert_allclose(back.initial_leg_lengths, geometry.initial_leg_lengths, rtol=0, atol=1e-6)
+
+
+def test_a_table_of_another_stroke_is_fitted_on_this_one():
+    """An older export widened the table to reading 0 with the polynomial extrapolated there;
+    read with its HEXCAL_STROKE [20, 495], the points on the stroke give the terms exactly and
+    the residual names how far the others differ from the held curve."""
+    geometry = stroke_geometry()
+    dl = np.linspace(0.0, 495.0, 100)
+    x = (2 * dl - 20.0 - 495.0) / 475.0  # not clipped: the old extrapolation
+    curve = legendre_values(x, 4)[0][:, 2:] @ TERMS.T  # (100, 6)
+    lengths = geometry.initial_leg_lengths + geometry.leg_gains * dl[:, None] + curve
+    tables = [CompTable(lengths[:, leg], -curve[:, leg]) for leg in range(6)]
+    linear = geometry.replace(leg_model=LinearLegs(), leg_terms=None)
+    fitted, worst = stroke_from_tables(linear, tables, 4, np.full(6, 20.0), np.full(6, 495.0))
+    np.testing.assert_allclose(fitted.leg_terms, TERMS, rtol=0, atol=1e-12)
+    held = legendre_values(np.full(1, -1.0), 4)[0][:, 2:] @ TERMS.T  # the curve at the stroke's low end
+    assert worst == pytest.approx(np.max(np.abs(curve[0] - held[0])), rel=1e-9)
 
 
 def test_type_0_tables_read_as_positions_reached():

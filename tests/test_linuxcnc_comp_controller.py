@@ -7,8 +7,9 @@ period 400 mm) and a short cyclic error of 2 µm at the 5 mm screw lead (which n
 follows). 90 poses are measured with a tracker-like noise (legs 2 µm, positions 5 µm, angles
 2e-5 rad, normal) and identified with the stroke model of degree 6; ``hexcal export linuxcnc``
 writes its genhexkins HAL, the INI keys and six ``COMP_FILE`` tables. One headless LinuxCNC run
-with the tables and one with the same export less its ``COMP_FILE`` lines move to 16 targets by
-MDI ``G0``. From the run:
+with the tables and one with the same export less its ``COMP_FILE`` lines move to 16 targets in
+the workspace and 4 below it by MDI ``G0``; the 4 take legs beyond the calibrated stroke (by up
+to 14 % of it), hence beyond the tables (issue 32). From the run:
 
 - LinuxCNC's compensation (``joint.N.backlash-filt``) is the table's trim at the commanded joint
   position, and the motor command is the joint position plus it: the table's sign and meaning as
@@ -17,6 +18,8 @@ MDI ``G0``. From the run:
   trim LinuxCNC had at the switch when it homed (``HOME_OFFSET`` is the model's length at reading
   0); the simulated real machine's legs then have their true lengths, and its forward kinematics
   gives the pose it reaches.
+- beyond the tables LinuxCNC holds their end trims, and the motor goes where hexcal's own
+  inverse of the model (its curve held beyond the stroke) puts it: the same continuation.
 
 Skipped, with the reason, where LinuxCNC is not installed.
 """
@@ -33,11 +36,17 @@ import pytest
 import linuxcnc_sim
 from hexcal.calibration import estimate
 from hexcal.core import NoiseModel, preset, random_poses, workspace_corners
-from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, leg_readings
+from hexcal.core.kinematics import (
+    forward_kinematics,
+    inverse_kinematics,
+    leg_lengths,
+    leg_readings,
+    pose_jacobian,
+)
 from hexcal.core.legs import LegModel
 from hexcal.core.stroke_legs import StrokeLegs, with_leg_model
 from hexcal.io.linuxcnc import HAL_FILE, INI_FILE, export_linuxcnc
-from hexcal.io.linuxcnc_comp import COMP_FILES
+from hexcal.io.linuxcnc_comp import COMP_FILES, TABLE_TOLERANCE
 from hexcal.io.linuxcnc_import import parse_ini
 from hexcal.simulation import simulate_measurements
 
@@ -48,6 +57,17 @@ BOW = np.array([0.10, -0.15, 0.25, -0.20, 0.12, 0.18])
 WAVE = np.array([0.03, 0.05, 0.04, 0.035, 0.045, 0.03])
 PHASE = np.array([0.0, 1.0, 2.0, 3.0, 4.0, 5.0])
 CYCLIC = 0.002  # mm at the 5 mm lead
+#: Targets below the workspace box (z 615-630 mm, readings 43-80 mm): legs beyond the stroke
+#: of readings 81-97 to 476-490 mm that the measured poses and the other targets span.
+BELOW = np.array(
+    [
+        [0.0, 0.0, 615.0, 0.0, 0.0, 0.0],
+        [40.0, -30.0, 625.0, 0.05, -0.04, 0.03],
+        [-50.0, 20.0, 630.0, -0.03, 0.05, -0.05],
+        [20.0, 50.0, 620.0, 0.04, 0.03, 0.06],
+    ]
+)
+INSIDE = slice(0, 16)  # the targets in the workspace box
 
 
 class PitchLegs(LegModel):
@@ -96,9 +116,10 @@ def scenario():
     nominal = preset("paper-hmt").replace(euler="xyz")
     true = preset("paper-hmt-true").replace(euler="xyz", leg_model=PitchLegs())
     measured = np.vstack([workspace_corners(nominal), random_poses(nominal, 26, rng)])
-    targets = np.vstack([random_poses(nominal, 12, rng), workspace_corners(nominal)[[0, 21, 42, 63]]])
+    inside = np.vstack([random_poses(nominal, 12, rng), workspace_corners(nominal)[[0, 21, 42, 63]]])
     data = simulate_measurements(nominal, true, measured, NOISE, rng)
-    every = np.vstack([data.readings, leg_readings(nominal, inverse_kinematics(nominal, targets))])
+    every = np.vstack([data.readings, leg_readings(nominal, inverse_kinematics(nominal, inside))])
+    targets = np.vstack([inside, BELOW])
     start = with_leg_model(nominal, StrokeLegs(DEGREE, every.min(axis=0), every.max(axis=0)))
     result = estimate(start, data, "ml", noise=NOISE, fit="joints,l0,gains,stroke", with_bound=False)
     calibrated = result.geometry.replace(name="calibrated", calibration=result.calibration_metadata())
@@ -179,24 +200,70 @@ def test_linuxcnc_applies_the_table_with_its_sign(scenario):
     assert np.all(np.array([r["comp"] for r in scenario["runs"][False]]) == 0)
 
 
+def _hexcal_readings(s):
+    """The readings hexcal's own inverse of the calibrated model gives the targets."""
+    cal = s["calibrated"]
+    return leg_readings(cal, inverse_kinematics(cal, s["targets"]))
+
+
+def _linuxcnc_readings(s):
+    """The readings the motors of the run with tables travelled to since homing."""
+    rows = s["runs"][True]
+    cmd = np.array([r["joints_cmd"] for r in rows])
+    comp = np.array([r["comp"] for r in rows])
+    cal = s["calibrated"]
+    home = leg_lengths(cal, np.zeros(6))
+    trim_home = np.array([np.interp(home[n], *_table(s["files"], n)) for n in range(6)])
+    return (cmd + comp - home - trim_home) / cal.leg_gains
+
+
+def test_beyond_its_tables_linuxcnc_continues_as_hexcal(scenario):
+    """Issue 32: the joint positions of the 4 targets below the workspace lie before the tables'
+    first entries, where LinuxCNC holds the first trim; hexcal's model holds its curve there, so
+    the motors go where hexcal's inverse of the model puts them (no interpolation, no servo lag:
+    the trim is constant there)."""
+    s = scenario
+    cal = s["calibrated"]
+    rows = s["runs"][True]
+    cmd = np.array([r["joints_cmd"] for r in rows])
+    comp = np.array([r["comp"] for r in rows])
+    first = np.array([_table(s["files"], n)[0][0] for n in range(6)])
+    trims = np.array([_table(s["files"], n)[1][0] for n in range(6)])
+    before = cmd < first  # (targets, legs) beyond the tables' low ends
+    assert before[16:].all() and not before[INSIDE].any()
+    readings = _hexcal_readings(s)
+    low = cal.leg_model.stroke_range()[0]
+    assert np.all((readings < low)[before])  # beyond the calibrated stroke, by up to:
+    assert 0.08 < np.max((low - readings) / np.ptp(np.array(cal.leg_model.stroke_range()), axis=0)) < 0.2
+    # to 1e-7 mm: the HAL pin of the trim reads with single precision here (5e-9 mm seen at trims
+    # of 0.14 mm, 2^-24 relative)
+    np.testing.assert_allclose(comp[before], np.broadcast_to(trims, comp.shape)[before], rtol=0, atol=1e-7)
+    difference = (_linuxcnc_readings(s) - readings) * cal.leg_gains  # mm of leg
+    np.testing.assert_allclose(difference[before], 0.0, rtol=0, atol=1e-7)
+
+
 def test_tables_bring_the_real_machine_to_its_targets(scenario):
     s = scenario
+    cal = s["calibrated"]
+    # the legs: the motors' travel is hexcal's readings within the tables' interpolation error
+    # (TABLE_TOLERANCE) and the trim of the last servo cycle in motion (below 5e-4 mm, above)
+    difference = np.abs(_linuxcnc_readings(s) - _hexcal_readings(s)) * cal.leg_gains
+    assert difference.max() <= TABLE_TOLERANCE + 5e-4
     reached = _reached(s, True)
     error = np.linalg.norm(reached[:, :3] - s["targets"][:, :3], axis=1)
     # hexcal's own commands for the calibrated model (its inverse, no table): the calibration's accuracy
-    cal = s["calibrated"]
     alone = forward_kinematics(
-        s["true"],
-        leg_lengths(s["true"], leg_readings(cal, inverse_kinematics(cal, s["targets"]))),
-        guess=s["targets"],
+        s["true"], leg_lengths(s["true"], _hexcal_readings(s)), guess=s["targets"]
     ).poses
     alone_error = np.linalg.norm(alone[:, :3] - s["targets"][:, :3], axis=1)
     without = np.linalg.norm(_reached(s, False)[:, :3] - s["targets"][:, :3], axis=1)
+    inside, below = error[INSIDE], error[16:]
     print(
-        f"position error at 16 targets, max / rms (mm): LinuxCNC with tables {error.max():.4f} / "
-        f"{np.sqrt(np.mean(error**2)):.4f}; hexcal alone {alone_error.max():.4f} / "
-        f"{np.sqrt(np.mean(alone_error**2)):.4f}; without tables {without.max():.4f} / "
-        f"{np.sqrt(np.mean(without**2)):.4f}"
+        f"position error at 16 targets, max / rms (mm): LinuxCNC with tables {inside.max():.4f} / "
+        f"{np.sqrt(np.mean(inside**2)):.4f}; hexcal alone {alone_error[INSIDE].max():.4f} / "
+        f"{np.sqrt(np.mean(alone_error[INSIDE] ** 2)):.4f}; without tables {without[INSIDE].max():.4f} / "
+        f"{np.sqrt(np.mean(without[INSIDE] ** 2)):.4f}; at the 4 below the workspace, with tables "
+        f"{below.max():.4f}, hexcal alone {alone_error[16:].max():.4f}, without {without[16:].max():.4f}"
     )
     rows = s["runs"]["linear"]
     lin = s["linear"]
@@ -206,9 +273,12 @@ def test_tables_bring_the_real_machine_to_its_targets(scenario):
     ).poses
     linear = np.linalg.norm(reached_linear[:, :3] - s["targets"][:, :3], axis=1)
     print(
-        f"48-parameter calibration (linear legs) in LinuxCNC: {linear.max():.4f} / "
-        f"{np.sqrt(np.mean(linear**2)):.4f}"
+        f"48-parameter calibration (linear legs) in LinuxCNC: {linear[INSIDE].max():.4f} / "
+        f"{np.sqrt(np.mean(linear[INSIDE] ** 2)):.4f}; below the workspace {linear[16:].max():.4f}"
     )
-    np.testing.assert_allclose(error, alone_error, rtol=0, atol=2e-3)  # the table's interpolation
-    assert without.max() > 5 * error.max()
-    assert linear.max() > 3 * error.max()
+    # the poses: the leg differences through the inverse pose Jacobian (first order, exact enough
+    # at a few µm)
+    bound = np.linalg.norm(np.linalg.inv(pose_jacobian(cal, s["targets"]))[:, :3], ord=2, axis=(1, 2))
+    assert np.all(np.abs(error - alone_error) <= bound * np.linalg.norm(difference, axis=1) + 1e-6)
+    assert without[INSIDE].max() > 5 * inside.max()
+    assert linear[INSIDE].max() > 3 * inside.max()

@@ -52,7 +52,7 @@ def _setups(kind: str, frame: list[float]) -> tuple[Setup, Setup]:
     return Setup(np.array(frame), TARGETS3), Setup(None, guess)
 
 
-@pytest.mark.parametrize("kind", ["tool", "targets"])
+@pytest.mark.parametrize("kind", [pytest.param("tool", marks=pytest.mark.slow), "targets"])  # targets: fast
 @pytest.mark.parametrize(
     "frame", ["x180", *(pytest.param(f, marks=pytest.mark.slow) for f in FRAMES if f != "x180")]
 )

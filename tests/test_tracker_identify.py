@@ -77,7 +77,7 @@ def test_registration_refuses_collinear_points():
 def test_full_pose_setup_gives_the_full_pose_result():
     nominal, true = preset("paper-hmt"), preset("paper-hmt-true")
     meas = simulate_measurements(nominal, true, poses(nominal, 40, 1), NoiseModel(), 2)
-    ref = estimate(nominal, meas, "ml", with_bound=False)
+    ref = estimate(nominal, meas, "ml", noise=NoiseModel(), with_bound=False)
     setup = Setup(np.zeros(6), tool=np.zeros(6), fixed=("instrument_frame", "tool"))
     r = identify(nominal, meas, setup, NoiseModel())  # ToolModel(setup): the rotation-vector residual
     assert r.gauges == () and r.names == ref.names

@@ -157,3 +157,28 @@ def test_setup_angles_convert_to_the_geometry_sequence():
     b = Rotation.from_euler("XYZ", moved.frame[3:]).as_matrix()
     np.testing.assert_allclose(a, b, atol=1e-12)
     np.testing.assert_array_equal(moved.frame[:3], FRAME[:3])
+
+
+@pytest.mark.parametrize("kind", ["targets", "tool", "pose", "ballbar"])
+def test_residual_and_pose_jacobian_at_once_are_the_two_alone(kind):
+    """The likelihood's pose solve asks an instrument for its residual and whitened pose
+    Jacobian at once (:meth:`MeasurementModel.residual_and_pose_jacobian`; a model shares the
+    work of the two): exactly what the two methods give alone."""
+    from hexcal.instruments.ballbar import BallbarModel
+    from hexcal.instruments.ballbar_setup import BallbarSetup
+    from hexcal.instruments.pose import FullPoseModel
+
+    rng = np.random.default_rng(3)
+    model = {
+        "targets": TargetModel(Setup(FRAME, TARGETS3)),
+        "tool": ToolModel(Setup(FRAME, tool=[10, -20, 60, 0.2, -0.1, 0.4])),
+        "pose": FullPoseModel(),
+        "ballbar": BallbarModel(BallbarSetup([0, 0, 750], [0, 0, -50], 150.0)),
+    }[kind]
+    setup = model.parameters().values
+    poses = np.concatenate([rng.uniform(-200, 200, (5, 3)), rng.uniform(-0.3, 0.3, (5, 3))], axis=1)
+    observed = model.predict(setup, poses, "XYZ") + rng.normal(0, 0.1, (5, model.size))
+    whitener = np.diag(rng.uniform(1, 2, model.size))
+    both = model.residual_and_pose_jacobian(setup, poses, "XYZ", observed, whitener)
+    np.testing.assert_array_equal(both[0], model.residual(setup, poses, "XYZ", observed))
+    np.testing.assert_array_equal(both[1], model.whitened_pose_jacobian(setup, poses, "XYZ", whitener))

@@ -67,6 +67,7 @@ def test_a_pose_covariance_is_refused_for_targets(command, campaigns, tmp_path: 
     assert "--pose-covariance" in line and "no pose is measured" in line and "--noise pos=" in line
 
 
+@pytest.mark.slow  # fast representative: test_likelihood.py::test_full_pose_covariance_is_used
 def test_a_pose_covariance_acts_for_a_tool(campaigns, tmp_path: Path):
     import json
 

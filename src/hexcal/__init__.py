@@ -28,7 +28,7 @@ same few names do the whole calibration: ``setup = hexcal.load_setup("tracker.ya
 ``result = hexcal.estimate(geometry, sessions, noise="auto")`` (one machine, each session
 its own instrument frame, the noise learned from the data as ``hexcal identify`` does;
 ``result.verdict.status`` is pass, warn or fail), then
-``hexcal.validate(result.geometry, held_out_session)``.
+``hexcal.validate(result.geometry, held_out_session)`` (what ``hexcal validate`` does).
 
 Public names
 ------------
@@ -41,15 +41,18 @@ Public names
 - ``Setup``, ``load_setup``, ``save_setup``, ``instrument_for``, ``MeasurementModel``,
   ``FullPoseModel``, ``ToolModel``, ``TargetModel``: instruments and their setup files.
 - ``Session``, ``read_session``, ``read_sessions``, ``write_session_data``, ``Measurements``,
-  ``TargetMeasurements``, ``read_measurements``, ``write_measurements``,
+  ``TargetMeasurements``, ``Covariates``, ``read_measurements``, ``write_measurements``,
   ``read_target_measurements``, ``write_target_measurements``, ``read_tool_measurements``:
-  measurement sessions and their files (docs/formats.md "Sessions").
+  measurement sessions and their files (docs/formats.md "Sessions"); the covariates of their
+  rows (time, leg temperatures, payload).
 - ``read_poses``, ``write_poses``, ``read_legs``, ``write_legs``: pose and leg files.
 - ``calibrate``, ``Calibration``: the calibration workflow (noise, leg model, outliers, the
   verdict, splits, predicted accuracy) and its result, reports and file.
 - ``estimate``, ``ESTIMATORS``, ``IdentificationResult``, ``Problem``, ``identify_robust``,
   ``Verdict``: identification from one or several sessions, with its verdict.
-- ``validate``, ``ValidationResult``: prediction errors on held-out data.
+- ``validate``, ``Validation``, ``ValidationResult``: the validation workflow on held-out data
+  (the re-registration, what the calibration expected, the nominal machine beside, the ISO
+  tests) and its result, reports and files; one geometry's prediction errors.
 - ``compensate``: leg commands that bring the calibrated machine to targets.
 - ``candidate_poses``, ``check_feasibility``, ``analyse_poses``, ``plan_selection``,
   ``select_poses``: planning (candidate poses, observability, optimal selection).
@@ -118,6 +121,7 @@ _PUBLIC = {
     "compensate": "core",
     "Measurements": "instruments",
     "TargetMeasurements": "instruments",
+    "Covariates": "instruments",
     "MeasurementModel": "instruments",
     "FullPoseModel": "instruments",
     "ToolModel": "instruments",
@@ -132,7 +136,8 @@ _PUBLIC = {
     "calibrate": "workflow",
     "Calibration": "workflow",
     "estimate": "calibration",
-    "validate": "calibration",
+    "validate": "workflow",
+    "Validation": "workflow",
     "ValidationResult": "calibration",
     "Verdict": "calibration",
     "analyse_poses": "design",

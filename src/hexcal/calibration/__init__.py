@@ -21,10 +21,13 @@ Public names
 - ``diagnose``, ``Quality``: the likely cause of a bad fit (degrees, gains, Euler sequence...).
 - ``predicted_pose_accuracy``, ``predicted_pose_errors``, ``pose_error_map``: the predicted
   pose accuracy after calibration.
+- ``poses_stroke_excess``, ``workspace_stroke_excess``: how far poses, or the workspace box,
+  take legs beyond a stroke leg model's calibrated stroke (where it holds its curve).
 - ``circular_test``, ``CircularTest``, ``pose_statistics``, ``PoseStatistics``,
   ``repeated_visits``: the ISO 230-4 circular test and the ISO 9283 pose accuracy and
-  repeatability (docs/iso-tests.md); ``circular_tests``, ``pose_tests``: the same of
-  validations, before and after calibration.
+  repeatability (docs/iso-tests.md); ``iso_validations``, ``IsoValidations``: the
+  validations behind them, before and after calibration, the setup taken as each column needs
+  it; ``circular_tests``, ``pose_tests``: the tests of those validations.
 
 Other names of the lazy map below (limits, Jacobians and registration steps the verdict and
 the planning layer share) are not part of the API.
@@ -39,6 +42,8 @@ _NAMES = {
     "PoseStatistics": "iso_poses",
     "circular_test": "iso_tests",
     "circular_tests": "iso_validation",
+    "IsoValidations": "iso_validation",
+    "iso_validations": "iso_validation",
     "pose_statistics": "iso_poses",
     "pose_tests": "iso_validation",
     "repeated_visits": "iso_poses",
@@ -70,12 +75,14 @@ _NAMES = {
     "machine_size": "verdict",
     "parameter_limits": "verdict",
     "pose_error_map": "accuracy",
+    "poses_stroke_excess": "accuracy",
     "predicted_pose_accuracy": "accuracy",
     "predicted_pose_errors": "accuracy",
     "register_sessions": "identify",
     "rotation_vector_map": "accuracy",
     "undetermined": "verdict",
     "validate": "validation",
+    "workspace_stroke_excess": "accuracy",
 }
 
 __all__ = [
@@ -86,6 +93,7 @@ __all__ = [
     "SIGMA_LIMIT",
     "SIGMA_LIMITS",
     "CircularTest",
+    "IsoValidations",
     "PoseStatistics",
     "Quality",
     "Reason",
@@ -98,10 +106,12 @@ __all__ = [
     "diagnose",
     "estimate",
     "group_references",
+    "iso_validations",
     "noise_findings",
     "pose_error_map",
     "pose_statistics",
     "pose_tests",
+    "poses_stroke_excess",
     "predicted_pose_accuracy",
     "predicted_pose_errors",
     "reference_noises",
@@ -109,6 +119,7 @@ __all__ = [
     "sequence_findings",
     "split_sessions",
     "validate",
+    "workspace_stroke_excess",
 ]
 
 __getattr__, _dir, _names = attach(__name__, _NAMES)

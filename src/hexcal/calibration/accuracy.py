@@ -8,7 +8,10 @@ parameters' covariance ``Σθ`` the pose error has the covariance ``E Σθ Eᵀ`
 :func:`predicted_pose_errors` gives its RMS position error and RMS rotation angle (the
 rotation vector of the orientation error) at test poses, and
 :func:`predicted_pose_accuracy` the summary over the workspace that ``identify`` predicts and
-``validate`` measures.
+``validate`` measures. With a leg model whose curve holds over a calibrated stroke, the test
+poses may take legs beyond it, where the model holds its curve
+(:mod:`hexcal.core.stroke_legs`): the prediction is then made with that continuation, and
+:func:`poses_stroke_excess` says how much of it lies there (``beyond_stroke``).
 
 Imports :mod:`hexcal.core`.
 """
@@ -33,6 +36,7 @@ from hexcal.core import (
 )
 from hexcal.core.machine import leg_parameter_jacobian, pose_frames
 from hexcal.core.noise import NoiseModel
+from hexcal.core.stroke_legs import STROKE_MARGIN, StrokeExcess, stroke_excess
 
 
 def machine_mask(
@@ -185,11 +189,47 @@ def without_rigid_motions(
     the workspace (gauge freedoms), so the projection is the one that minimises the pose error
     over the test poses (angles weighted by the platform radius, so a milliradian at the edge
     of the platform counts as its displacement)."""
+    proj = rigid_projection(e_pos, e_rot, rigid, geometry)
+    return proj @ covariance @ proj.T
+
+
+def rigid_projection(
+    e_pos: NDArray[np.float64], e_rot: NDArray[np.float64], rigid: NDArray[np.float64], geometry: Geometry
+) -> NDArray[np.float64]:
+    """The projection ``(n, n)`` of :func:`without_rigid_motions` (``cov -> P cov Pᵀ``)."""
     radius = float(np.max(np.linalg.norm(geometry.platform_joints[:, :2], axis=1)))
     metric = np.einsum("tip,tiq->pq", e_pos, e_pos) + radius**2 * np.einsum("tip,tiq->pq", e_rot, e_rot)
     mg = metric @ rigid
-    proj = np.eye(len(covariance)) - rigid @ np.linalg.pinv(rigid.T @ mg) @ mg.T
-    return proj @ covariance @ proj.T
+    return np.eye(len(rigid)) - rigid @ np.linalg.pinv(rigid.T @ mg) @ mg.T
+
+
+def position_metric(
+    geometry: Geometry,
+    mask: ArrayLike | None = None,
+    rigid: ArrayLike | None = None,
+    n_random: int = 200,
+    seed: int = 0,
+) -> NDArray[np.float64]:
+    """The matrix ``W`` (n, n) whose ``trace(Σθ W)`` is the square of the predicted position
+    RMS (mm²) of :func:`predicted_pose_accuracy` for a parameter covariance ``Σθ``: a
+    criterion of what a calibration will deliver, linear in the covariance (so planning can
+    score many candidate covariances at once).
+
+    >>> from hexcal.core import preset
+    >>> machine, cov = preset("paper-hmt"), np.eye(42) * 1e-4
+    >>> w = position_metric(machine)
+    >>> bool(np.isclose(np.sqrt(np.trace(cov @ w)), predicted_pose_accuracy(machine, cov)["position_rms_mm"]))
+    True
+    """
+    tp = accuracy_test_poses(geometry, n_random, seed)
+    e = pose_error_map(geometry, tp, mask)
+    e_pos = e[:, :3]
+    weight = np.einsum("tip,tiq->pq", e_pos, e_pos) / len(tp)
+    if rigid is None or not np.size(rigid):
+        return weight
+    e_rot = np.einsum("tij,tjk->tik", rotation_vector_map(geometry, tp), e[:, 3:])
+    proj = rigid_projection(e_pos, e_rot, np.asarray(rigid, dtype=float), geometry)
+    return proj.T @ weight @ proj
 
 
 def accuracy_geometry(geometry: Geometry, poses: ArrayLike | None) -> tuple[Geometry, str]:
@@ -260,6 +300,42 @@ def predicted_instrument_accuracy(
     return out
 
 
+def poses_stroke_excess(
+    geometry: Geometry,
+    poses: ArrayLike,
+    margin: float = STROKE_MARGIN,
+    ids: Sequence[Any] | None = None,
+) -> StrokeExcess | None:
+    """How far ``poses (m, 6)`` take legs beyond the calibrated stroke (the readings of the
+    geometry's own inverse kinematics, :func:`hexcal.core.stroke_legs.stroke_excess`), or
+    ``None`` when the leg model has no stroke. Where they do, every prediction at them is
+    made with the model's held curve.
+
+    >>> from hexcal.core import preset
+    >>> from hexcal.core.stroke_legs import StrokeLegs, with_leg_model
+    >>> narrow = with_leg_model(preset("paper-hmt"), StrokeLegs(3, [150.0] * 6, [300.0] * 6))
+    >>> beyond = poses_stroke_excess(narrow, workspace_corners(narrow))
+    >>> beyond.rows, beyond.beyond_share, round(float(beyond.share.max()), 2)
+    (64, 0.96875, 1.26)
+    """
+    flat = as_poses(poses).reshape(-1, 6)
+    if geometry.leg_model.stroke_range() is None:
+        return None
+    readings = leg_readings(geometry, inverse_kinematics(geometry, flat))
+    return stroke_excess(geometry, readings, margin, ids)
+
+
+def workspace_stroke_excess(
+    geometry: Geometry, n_random: int = 200, seed: int = 0, margin: float = STROKE_MARGIN
+) -> StrokeExcess | None:
+    """How far the poses of the geometry's workspace box (its corners and ``n_random`` uniform
+    poses, seeded: :func:`accuracy_test_poses`) take legs beyond the calibrated stroke;
+    ``None`` when the leg model has no stroke or the geometry no workspace box."""
+    if geometry.workspace is None or geometry.leg_model.stroke_range() is None:
+        return None
+    return poses_stroke_excess(geometry, accuracy_test_poses(geometry, n_random, seed), margin)
+
+
 def predicted_pose_accuracy(
     geometry: Geometry,
     covariance: ArrayLike,
@@ -267,12 +343,14 @@ def predicted_pose_accuracy(
     n_random: int = 200,
     seed: int = 0,
     rigid: ArrayLike | None = None,
-) -> dict[str, float]:
+) -> dict[str, Any]:
     """RMS and worst predicted pose error over the workspace after calibration.
 
     The workspace corners and ``n_random`` uniform poses (seeded) are the test poses of
     :func:`predicted_pose_errors`: ``position_rms_mm``, ``position_max_mm`` (mm),
-    ``orientation_rms_rad``, ``orientation_max_rad`` (rad, rotation angle), ``poses``.
+    ``orientation_rms_rad``, ``orientation_max_rad`` (rad, rotation angle), ``poses``, and for
+    a leg model with a stroke ``beyond_stroke`` (:func:`poses_stroke_excess`: how much of the
+    prediction the model makes beyond the calibrated stroke, with its held curve).
 
     >>> from hexcal.core import preset
     >>> acc = predicted_pose_accuracy(preset("paper-hmt"), np.eye(42) * 1e-4)
@@ -281,13 +359,17 @@ def predicted_pose_accuracy(
     """
     poses = accuracy_test_poses(geometry, n_random, seed)
     position, orientation = predicted_pose_errors(geometry, poses, covariance, mask, rigid)
-    return {
+    out: dict[str, Any] = {
         "position_rms_mm": float(np.sqrt(np.mean(position**2))),
         "position_max_mm": float(position.max()),
         "orientation_rms_rad": float(np.sqrt(np.mean(orientation**2))),
         "orientation_max_rad": float(orientation.max()),
         "poses": len(poses),
     }
+    beyond = poses_stroke_excess(geometry, poses)
+    if beyond is not None:
+        out["beyond_stroke"] = beyond.to_dict()
+    return out
 
 
 def expected_validation(

@@ -47,7 +47,8 @@ def accuracy_findings(
             f"predicted pose error after calibration over {where}{_rigid_note(rigid)}: "
             f"position RMS "
             f"{acc['position_rms_mm']:.3g} mm (worst {acc['position_max_mm']:.3g}), orientation RMS "
-            f"{acc['orientation_rms_rad']:.3g} rad (worst {acc['orientation_max_rad']:.3g})",
+            f"{acc['orientation_rms_rad']:.3g} rad (worst {acc['orientation_max_rad']:.3g})"
+            f"{_beyond_note(acc.get('beyond_stroke'))}",
             acc,
         )
     ]
@@ -140,6 +141,17 @@ def _instrument_reason(entry: dict[str, Any]) -> Reason:
         f"predicted error of what the instrument reads after calibration ({entry['session']}): "
         + ", ".join(values),
         entry,
+    )
+
+
+def _beyond_note(beyond: dict[str, Any] | None) -> str:
+    """How much of the prediction lies beyond the calibrated stroke (empty when none does)."""
+    if not beyond or not beyond["beyond_rows"]:
+        return ""
+    return (
+        f"; {beyond['beyond_share']:.0%} of its {beyond['rows']} test poses take a leg beyond the "
+        f"calibrated stroke (by up to {beyond['largest_share_of_stroke']:.0%} of it, "
+        f"{beyond['largest_mm']:.3g} mm), predicted there with the model's curve held"
     )
 
 

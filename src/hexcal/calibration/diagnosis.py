@@ -87,6 +87,9 @@ def diagnose(result: Any, sessions: Sequence[Any], refit: Refit, bad: bool = Tru
         The fit is suspect: also try units and Euler sequences.
     """
     start, names = result.start, tuple(result.names)
+    swapped = swapped_points(result)
+    if swapped is not None:  # the fit is fine, the labels are not: nothing to refit
+        return [swapped]
     base = refit(start, sessions, names)
     if not np.isfinite(base.rms):
         return []
@@ -103,7 +106,9 @@ def diagnose(result: Any, sessions: Sequence[Any], refit: Refit, bad: bool = Tru
         return [r for r, g in zip(out, gains, strict=True) if g < unit.data["rms_converted"]] + [unit]
     if any(r.severity == "fail" for r in out):
         return out  # the gains explain the fit (its residual more than halves): no Euler search
-    cause = _euler(start, names, sessions, refit, base)
+    cause = _best(
+        _swapped_columns(start, names, sessions, refit, base), _euler(start, names, sessions, refit, base)
+    )
     return out + ([cause] if cause is not None else [])
 
 
@@ -118,8 +123,140 @@ def explain_failure(
     return (
         _absolute_readings(start, names, sessions, refit, base)
         or _units(start, names, sessions, refit, base)
-        or _euler(start, names, sessions, refit, base)
+        or _best(
+            _swapped_columns(start, names, sessions, refit, base), _euler(start, names, sessions, refit, base)
+        )
     )
+
+
+def _best(*causes: Reason | None) -> Reason | None:
+    """The cause whose re-reading fits best (a wrong Euler sequence also fits better with two
+    columns exchanged, and the other way round)."""
+    found = [c for c in causes if c is not None]
+    return min(found, key=lambda c: c.data["rms_converted"], default=None)
+
+
+#: Two points (legs' joints, targets) look swapped when each fitted point lies this many times
+#: closer to the other's start than to its own, and moved by more than :data:`SWAP_MOVE` mm.
+SWAP_RATIO = 10.0
+SWAP_MOVE = 1.0
+
+
+#: The codes of the diagnoses: a likely cause of the fit's other findings.
+CAUSES = (
+    "unfitted-gains",
+    "absolute-readings",
+    "swapped-columns",
+    "euler-sequence",
+    "length-units",
+    "angle-units",
+)
+
+
+def likely_cause_first(reasons: Sequence[Reason]) -> list[Reason]:
+    """``reasons`` with the diagnoses' findings (:data:`CAUSES`) first, the others in their
+    order: when the data hold a mistake (radians in degree columns), the "not determined" and
+    "changed beyond 25 %" findings are its consequences, and the cause must be read first.
+
+    >>> found = [Reason("not-determined", "fail", "a"), Reason("angle-units-degrees", "fail", "b")]
+    >>> [r.code for r in likely_cause_first(found)]
+    ['angle-units-degrees', 'not-determined']
+    """
+    cause = [r for r in reasons if r.code.startswith(CAUSES)]
+    return cause + [r for r in reasons if not r.code.startswith(CAUSES)]
+
+
+def _points(result: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """``{point: (fitted xyz, start xyz)}`` of every varied point of the fit (``u1``, ``s3``,
+    ``t2``, ``session2.t1``...: parameters ``NAME.x``, ``NAME.y``, ``NAME.z``)."""
+    fitted = dict(zip(result.names, np.asarray(result.values, dtype=float), strict=True))
+    start = dict(zip(result.names, np.asarray(result.start_values, dtype=float), strict=True))
+    out = {}
+    for name in result.names:
+        if name.endswith(".x"):
+            point = name[:-2]
+            axes = [f"{point}.{a}" for a in "xyz"]
+            if all(a in fitted for a in axes):
+                out[point] = (np.array([fitted[a] for a in axes]), np.array([start[a] for a in axes]))
+    return out
+
+
+def swapped_points(result: Any) -> Reason | None:
+    """Two legs' columns (``dl1``/``dl2``), or two targets' (``t1``/``t2``), swapped in the data:
+    the fit then fits, with the two legs' joints (or the two targets) exchanged, each fitted
+    close to the other's start (a "change beyond 25 %" of a few hundred mm in pairs). Found
+    from the fit alone; None when no pair looks exchanged."""
+    points = _points(result)
+    pairs = []
+    legs = sorted({int(p[1:]) for p in points if p[:1] in "us" and p[1:].isdigit()})
+    for i in legs:
+        for j in legs:
+            if i < j and all(f"{k}{n}" in points for k in "us" for n in (i, j)):
+                pairs.append(((f"u{i}", f"s{i}"), (f"u{j}", f"s{j}"), f"dl{i}", f"dl{j}", "leg"))
+    others = [p for p in points if not (p[:1] in "us" and p[1:].isdigit())]
+    for a in others:
+        for b in others:
+            if a < b and a.rpartition(".")[0] == b.rpartition(".")[0]:  # one session's targets
+                pairs.append(((a,), (b,), a.rpartition(".")[2], b.rpartition(".")[2], "target"))
+    for first, second, name_a, name_b, kind in pairs:
+        same = sum(np.linalg.norm(points[p][0] - points[p][1]) for p in (*first, *second))
+        crossed = sum(
+            np.linalg.norm(points[p][0] - points[q][1]) + np.linalg.norm(points[q][0] - points[p][1])
+            for p, q in zip(first, second, strict=True)
+        )
+        if same > SWAP_MOVE * 2 * len(first) and crossed * SWAP_RATIO < same:
+            columns = "leg columns" if kind == "leg" else "target columns"
+            return Reason(
+                "swapped-columns",
+                "fail",
+                f"the {columns} {name_a} and {name_b} look swapped in the data: the fit moved each "
+                f"{'leg' if kind == 'leg' else 'target'} by {same / (2 * len(first)):.4g} mm on average to "
+                f"within {crossed / (2 * len(first)):.3g} mm of where the other should be; swap them back "
+                "(or rename them with --columns)",
+                {"columns": [name_a, name_b], "moved_mm": same, "crossed_mm": crossed},
+            )
+    return None
+
+
+def _swapped_columns(
+    start: Geometry, names: tuple[str, ...], sessions: Sequence[Any], refit: Refit, base: Quality
+) -> Reason | None:
+    """Two position columns (``x``/``y``...) swapped in a pose file: each exchange is screened by a
+    short refit, the best refitted in full, named when it explains the fit (:func:`_explains`).
+    Angle columns are left to the Euler search: with small angles, exchanging ``a`` and ``c``
+    fits about as well as reading them in the reversed sequence."""
+    import dataclasses
+
+    for k, session in enumerate(sessions):
+        poses = getattr(session.data, "poses", None)
+        if poses is None or not dataclasses.is_dataclass(session.data):
+            continue
+        tried = []
+        for group in (("x", "y", "z"),):
+            offset = 0
+            for i in range(3):
+                for j in range(i + 1, 3):
+                    swapped = np.array(poses, dtype=float)
+                    swapped[:, [offset + i, offset + j]] = swapped[:, [offset + j, offset + i]]
+                    variant = list(sessions)
+                    variant[k] = session.replace(data=dataclasses.replace(session.data, poses=swapped))
+                    quick = refit(start, variant, names, max_nfev=SCREEN_NFEV)
+                    tried.append((quick.rms, group[i], group[j], variant))
+        tried.sort(key=lambda t: t[0])
+        fits = [(refit(start, t[3], names), t[1], t[2]) for t in tried[:SCREEN_KEEP]]
+        fits.sort(key=lambda f: f[0].rms)
+        quality, a, b = fits[0]
+        if _explains(quality.rms, base, [f[0].rms for f in fits[1:]]):
+            where = f"{session.label}: " if session.label else ""
+            before = base.text() if np.isfinite(base.rms) else "a failed fit"
+            return Reason(
+                "swapped-columns",
+                "fail",
+                f"{where}the pose columns {a} and {b} look swapped: with them exchanged the residual RMS "
+                f"falls from {before} to {quality.text()}",
+                {"columns": [a, b], "rms": base.rms, "rms_converted": quality.rms},
+            )
+    return None
 
 
 def _explains(rms: float, base: Quality, others: Sequence[float]) -> bool:
@@ -163,7 +300,7 @@ def _units(
 ) -> Reason | None:
     for k, session in enumerate(sessions):
         fits = []
-        for code, text, data in session.instrument.variants(session.data):
+        for code, text, data in [*session.instrument.variants(session.data), *_with_legs(session)]:
             variant = list(sessions)
             variant[k] = session.replace(data=data)
             fits.append((refit(start, variant, names), code, text))
@@ -182,6 +319,27 @@ def _units(
                     {"rms": base.rms, "rms_converted": quality.rms},
                 )
     return None
+
+
+def _with_legs(session: Any) -> list[tuple[str, str, Any]]:
+    """The instrument's length re-readings (metres, inches) with the leg readings re-read in
+    the same unit: a file written all in metres, legs included."""
+    import dataclasses
+
+    readings = getattr(session.data, "readings", None)
+    if readings is None or not dataclasses.is_dataclass(session.data):
+        return []
+    out = []
+    for code, _, data in session.instrument.variants(session.data):
+        unit = code.removeprefix("length-units-")
+        if unit == code:
+            continue
+        factor = {"metres": 1000.0, "inches": 25.4}.get(unit)
+        if factor is None:
+            continue
+        both = dataclasses.replace(data, readings=np.asarray(readings, dtype=float) * factor)
+        out.append((f"{code}-legs", f"everything looks like {unit}, the leg readings included", both))
+    return out
 
 
 def absolute_readings(start: Geometry, sessions: Sequence[Any]) -> str | None:

@@ -305,11 +305,13 @@ def _robust_noise(problem: Problem, options: dict) -> NoiseEstimate:
 
 
 def _learn_noise(problem: Problem, options: dict) -> tuple[NoiseEstimate, IdentificationResult]:
-    """The noise of every session and group learned from the data, started from (and, where
-    these data cannot determine a group, held at) what its instrument declares or such
-    instruments typically do (:func:`hexcal.calibration.noise_judgement.reference_noises`)."""
+    """The noise of every session and group learned from the data; where these data cannot
+    determine a group, held at what its instrument declares or such instruments typically do
+    (:func:`hexcal.calibration.noise_judgement.reference_noises`). The iteration starts from the
+    seed paper's noise, lenient towards the instrument: a first fit under a strict instrument
+    weight (a ballbar's micrometre) can fall into another minimum."""
     references = reference_noises([p.instrument for p in problem.parts])
-    return estimate_noise(problem, start=references, fallback=references, **options)
+    return estimate_noise(problem, fallback=references, **options)
 
 
 def _explain_failure(

@@ -33,12 +33,25 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hexcal.calibration.limits import VISIT_TOLERANCE_LIMIT
 from hexcal.errors import InputError
+
+
+def check_visit_tolerance(tolerance: float) -> None:
+    """Refuse, in one line, a tolerance of repeated visits that is negative or larger than
+    :data:`VISIT_TOLERANCE_LIMIT`."""
+    if not 0 <= tolerance <= VISIT_TOLERANCE_LIMIT:
+        raise InputError(
+            f"the tolerance of repeated visits must be between 0 and {VISIT_TOLERANCE_LIMIT:g} mm, got "
+            f"{tolerance:g}: visits of one commanded pose read the same leg commands, and a larger "
+            "tolerance joins distinct poses"
+        )
 
 
 def repeated_visits(readings: ArrayLike, tolerance: float) -> NDArray[np.intp]:
     """Visits of the same commanded pose: observations whose leg readings all agree within
-    ``tolerance`` (mm), chained (single linkage), numbered 0, 1, ... in order of first visit.
+    ``tolerance`` (mm), chained (single linkage), numbered 0, 1, ... in order of first visit
+    (:func:`check_visits` refuses a chain that joins distinct poses).
 
     >>> repeated_visits([[0] * 6, [5] * 6, [0.001] * 6], 0.01).tolist()
     [0, 1, 0]
@@ -47,13 +60,44 @@ def repeated_visits(readings: ArrayLike, tolerance: float) -> NDArray[np.intp]:
     from scipy.sparse.csgraph import connected_components
 
     r = np.asarray(readings, dtype=float).reshape(-1, 6)
-    if not tolerance >= 0:
-        raise InputError(f"the tolerance of repeated visits must be >= 0, got {tolerance}")
+    check_visit_tolerance(tolerance)
     pairs = _close_pairs(r, tolerance)
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(r), len(r)))
     labels = connected_components(graph, directed=False)[1]
     _, first, inverse = np.unique(labels, return_index=True, return_inverse=True)
     return np.argsort(np.argsort(first))[inverse]
+
+
+def check_visits(
+    readings: ArrayLike, visits: ArrayLike, tolerance: float, ids: tuple[str, ...] | None = None
+) -> None:
+    """Refuse, in one line, visits that chain distinct commanded poses: a group whose leg
+    readings spread (the largest of max - min over each leg) beyond ``tolerance``, which single
+    linkage reaches only through intermediate visits, is no set of visits of one pose.
+
+    >>> try:
+    ...     check_visits([[0] * 6, [0.008] * 6, [0.016] * 6], [0, 0, 0], 0.01)
+    ... except InputError as error:
+    ...     print(str(error).split(": ")[1])
+    the visits of pose 1 read legs up to 0.016 mm apart; give a smaller tolerance
+    """
+    r = np.asarray(readings, dtype=float).reshape(-1, 6)
+    labels = np.asarray(visits).reshape(-1)
+    k = int(labels.max(initial=-1)) + 1
+    high = np.full((k, 6), -np.inf)
+    low = np.full((k, 6), np.inf)
+    np.maximum.at(high, labels, r)
+    np.minimum.at(low, labels, r)
+    spread = np.max(high - low, axis=1)
+    worst = int(np.argmax(spread)) if k else 0
+    if k and spread[worst] > tolerance * (1 + 1e-9) + 1e-12:
+        first = int(np.flatnonzero(labels == worst)[0])
+        name = ids[first] if ids is not None else str(first + 1)
+        raise InputError(
+            f"the tolerance of repeated visits ({tolerance:g} mm) chains distinct commanded poses into "
+            f"one: the visits of pose {name} read legs up to {spread[worst]:.4g} mm apart; give a smaller "
+            "tolerance"
+        )
 
 
 #: Above this many rows within the tolerance of one row in the first reading, the pairs are

@@ -15,7 +15,8 @@ circle at each commanded point.
   to (the normal is turned towards the positive side of the base axis it is closest to:
   ``+z`` for a circle in the x-y plane, so that CCW is the usual CCW);
 - the actual point of a commanded point ``q`` at angle ``θ`` lies at the radius
-  ``|q - c0| + d`` from the nominal centre ``c0`` (``d`` its measured radial deviation);
+  ``|q - c0| + d`` from the nominal centre ``c0`` (``d`` its measured radial deviation), or
+  ``R0 + d`` for points commanded on the circle (``on_circle``: the positions only locate them);
 - **radial deviation F** (``F_max``, ``F_min``): the largest and smallest deviation of the
   actual path from the nominal circle, the centre of the nominal circle being where the
   instrument was centred (the commanded centre ``c0``): ``max`` and ``min`` of
@@ -65,6 +66,9 @@ _LSC_ITERATIONS = 20
 #: Commanded positions farther than this fraction of the radius from their least-squares circle
 #: (or plane) are no circle: the test refuses them.
 CIRCLE_TOLERANCE = 0.01
+#: The same for positions that only locate the points on the circle (``on_circle``: the path
+#: a machine took, a few percent out of round before calibration at most).
+LOCATED_TOLERANCE = 0.1
 
 
 def lsc_circle(points: ArrayLike) -> tuple[NDArray[np.float64], float]:
@@ -225,6 +229,7 @@ def circular_test(
     *,
     centre: ArrayLike | None = None,
     radius: float | None = None,
+    on_circle: bool = False,
 ) -> CircularTest:
     """The ISO 230-4 figures of one circle (module docstring).
 
@@ -240,6 +245,11 @@ def circular_test(
     centre, radius : optional
         The nominal circle's centre (in the plane's coordinates) and radius; default the
         least-squares circle of the commanded positions.
+    on_circle : bool
+        Each point commanded on the nominal circle at its angle (the actual radius is the
+        nominal one plus its deviation), rather than at the position given: for positions that
+        locate the points on the circle without being the command (docs/iso-tests.md), which
+        may lie up to :data:`LOCATED_TOLERANCE` of the radius off it.
 
     Raises
     ------
@@ -264,14 +274,16 @@ def circular_test(
     if centre is not None and radius is None:
         r0 = float(np.mean(np.linalg.norm(planar - c0, axis=1)))
     off = max(float(np.max(np.abs(np.linalg.norm(planar - c0, axis=1) - r0))), off_plane)
-    if centre is None and not off <= CIRCLE_TOLERANCE * r0:
+    limit = LOCATED_TOLERANCE if on_circle else CIRCLE_TOLERANCE
+    if centre is None and not off <= limit * r0:
         raise InputError(
-            f"the commanded positions are no circle: {off:.4g} mm off their least-squares circle of radius "
-            f"{r0:.4g} mm (more than {CIRCLE_TOLERANCE:.0%}); the circular test needs one circle's points"
+            f"the {'' if on_circle else 'commanded '}positions are no circle: {off:.4g} mm off their "
+            f"least-squares circle of radius {r0:.4g} mm (more than {limit:.0%}); the circular test needs "
+            "one circle's points"
         )
     rel = planar - c0
     angles = np.arctan2(rel[:, 1], rel[:, 0])
-    radii = np.linalg.norm(rel, axis=1) + d
+    radii = (r0 if on_circle else np.linalg.norm(rel, axis=1)) + d
     sense = progression(angles) if direction is None else np.sign(np.asarray(direction, dtype=float))
     sense = np.where(sense == 0, np.concatenate([sense[1:], sense[-1:]]), sense)  # a turning point
     runs: dict[str, CircleRun] = {}

@@ -1,4 +1,5 @@
-"""The verdict's limits and defaults, in one place, for Python and the command line alike.
+"""The verdict's and validation's limits and defaults, in one place, for Python and the command
+line alike.
 
 Every threshold of the verdict (:mod:`hexcal.calibration.verdict` and the modules that find its
 reasons) is here, with what it means; ``hexcal identify`` shows them as its options' defaults
@@ -48,3 +49,17 @@ FAIL_INFLATION = 1.5
 WARN_SHARE = 0.1
 #: The fewest observations on either side of a step.
 MIN_SEGMENT = 5
+
+# -- validation (:mod:`hexcal.calibration.validation`, :mod:`hexcal.workflow.validation`) ----
+
+#: Folds of validate's cross-validated re-registration of an instrument's free quantities.
+VALIDATION_FOLDS = 5
+
+#: Default tolerance (mm) on every leg reading for two observations to be visits of one
+#: commanded pose (ISO 9283: :mod:`hexcal.calibration.iso_poses`) ...
+VISIT_TOLERANCE = 0.01
+#: ... and the largest. Visits of one pose read the same leg commands, to the file's rounding or
+#: a servo's error (micrometres); legs a tenth of a millimetre apart command another pose, and
+#: grouping them would report the distance between poses as repeatability (a tolerance of 1e9
+#: made 20 poses one, RP 368 mm).
+VISIT_TOLERANCE_LIMIT = 0.1

@@ -189,8 +189,7 @@ def _families(
 
 def session_times(part: Any) -> NDArray[np.float64]:
     """When each observation of a session was measured: its ``time`` column, else the row order."""
-    covariates = getattr(part.data, "covariates", None)
-    time = getattr(covariates, "time", None)
+    time = part.instrument.covariates(part.data).time
     if time is not None:
         return np.asarray(time, dtype=float)
     return np.arange(len(part), dtype=float)

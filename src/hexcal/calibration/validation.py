@@ -20,13 +20,17 @@ fitted (machine fixed, maximum likelihood) on the other folds predicts each fold
 pose is judged by frames it helped to fit. The default, 5 folds, fits the frames on 80 % of the
 session (their own error then adds about ``p / (0.8 m k)`` of the noise variance for ``p``
 free quantities, ``m`` poses and ``k`` values per pose) and judges every pose once. The
-registration on all the poses is reported beside the figures.
+registration on all the poses is reported beside the figures. What the session cannot
+determine (a ball bar's pivot and ball on one level circle) is held as given and named
+(:mod:`hexcal.calibration.reregistration`); ``register=`` names the quantities to re-register
+when they are not the free ones (the ISO reports: :mod:`hexcal.calibration.iso_validation`).
 
 Compensation (leg commands for targets) is :mod:`hexcal.core.compensation`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -34,6 +38,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.calibration.accuracy import expected_validation, machine_mask
+from hexcal.calibration.identify import register_sessions
+from hexcal.calibration.limits import VALIDATION_FOLDS
+from hexcal.calibration.reregistration import quantity_mask, reregister, undetermined_quantities
 from hexcal.core.geometry import Geometry
 from hexcal.core.kinematics import forward_kinematics, inverse_kinematics, leg_lengths, pose_errors
 from hexcal.core.noise import NoiseModel
@@ -44,7 +51,7 @@ from hexcal.instruments.base import MeasurementModel, Session
 _POSE_ITERATIONS = 30
 
 #: Folds of the cross-validated re-registration (module docstring).
-DEFAULT_FOLDS = 5
+DEFAULT_FOLDS = VALIDATION_FOLDS
 
 #: Poses a fold's registration must keep per free quantity of the instrument, at least.
 _POSES_PER_QUANTITY = 1.0
@@ -67,14 +74,20 @@ class ValidationResult:
     instrument_errors : dict of str to ndarray
         The instrument's own prediction errors (``target`` distances ``(m, n)``, ``position``,
         ...).
+    measured_poses : ndarray, shape (m, 6), optional
+        The platform poses the instrument's values give (NaN where they give none).
+    instrument_residuals : ndarray, shape (m, size), optional
+        Each value predicted (at ``model_poses``, with the instrument as registered for the
+        observation's fold) minus measured, signed, in the instrument's units; NaN where absent.
     instrument : str
         What the instrument is.
     value_labels : tuple of str
         Labels of the columns of a per-value error (the targets ``t1``, ...).
     registration : dict, optional
         The re-registration of the instrument's free quantities (None when all are fixed):
-        ``folds``, ``seed``, ``quantities`` (their names), ``values`` and ``stderr`` fitted on
-        all the poses, ``leg_rms_mm`` of that fit at its estimated poses, and ``noise``.
+        ``folds``, ``seed``, ``quantities`` (their names), ``held`` (those asked for that the
+        session cannot determine, held as given), ``values`` and ``stderr`` fitted on all the
+        poses, ``leg_rms_mm`` of that fit at its estimated poses, and ``noise``.
     expected : dict, optional
         What this validation should measure if the calibration is as good as it said
         (:func:`~hexcal.calibration.accuracy.expected_validation` at these poses, with the
@@ -95,6 +108,7 @@ class ValidationResult:
     registration: dict[str, Any] | None = None
     expected: dict[str, Any] | None = None
     measured_poses: NDArray[np.float64] | None = None
+    instrument_residuals: NDArray[np.float64] | None = None
 
     def to_dict(self) -> dict[str, object]:
         """Summary and per-observation errors, JSON-ready (mm and rad)."""
@@ -173,6 +187,7 @@ def validate(
     folds: int = DEFAULT_FOLDS,
     seed: int = 0,
     noise: NoiseModel | None = None,
+    register: Iterable[str] | None = None,
 ) -> ValidationResult:
     """Prediction errors of ``geometry`` (and a calibrated instrument) on held-out data.
 
@@ -192,6 +207,11 @@ def validate(
         Seed of the assignment of poses to folds.
     noise : NoiseModel, optional
         The noise the registrations weight with (default learned from the session).
+    register : iterable of str, optional
+        The instrument's quantities to re-register (names or groups: ``pivot``, ``frame``),
+        whatever its setup fixes; default those its setup leaves free, and ``()`` holds them
+        all as given. Those the session cannot determine are held at their given values
+        (:mod:`hexcal.calibration.reregistration`) and named in ``registration["held"]``.
 
     Raises
     ------
@@ -201,11 +221,12 @@ def validate(
     """
     session = as_sessions(data, instrument)[0]
     inst = session.instrument
-    if not _free(inst):
+    vary = quantity_mask(inst, register)
+    if not (inst.unregistered or vary.any()):
         return _with_expected(_evaluate(geometry, session), geometry, inst, noise, folds)
     if folds < 2:
         raise UsageError(f"folds must be at least 2, got {folds}")
-    m, free = len(session), int(np.sum(_free_vary(inst)))
+    m, free = len(session), int(np.sum(vary))
     smallest = m - -(-m // folds)  # the smallest training set: all but the largest fold
     if smallest < max(_POSES_PER_QUANTITY * free, 3):
         raise ValidationError(
@@ -213,26 +234,54 @@ def validate(
             f"folds (each fold's registration keeps {smallest}): measure more poses, or fix the frame "
             "and tool in the setup"
         )
-    whole = _register(geometry, session, noise)
+    if inst.unregistered:  # an `auto` frame: its start from the data, once
+        session = register_sessions(geometry, [session])[0][0]
+    asked = vary.copy()
+    vary &= ~undetermined_quantities(geometry, session, vary, noise)
+    if not vary.any():  # nothing these data determine: the setup as given
+        return _with_expected(_evaluate(geometry, session), geometry, session.instrument, noise, folds)
+    whole = reregister(geometry, session, vary, noise)
     noise = whole.noises[0] if noise is None else noise
     fold = np.random.default_rng(seed).permutation(m) % folds
     parts = []
     for f in range(folds):
         train, test = np.flatnonzero(fold != f), np.flatnonzero(fold == f)
-        registered = _register(geometry, session.subset(train), noise).calibrated_instruments()[0]
+        registered = reregister(geometry, session.subset(train), vary, noise).calibrated_instruments()[0]
         parts.append((test, _evaluate(geometry, session.replace(instrument=registered).subset(test))))
     machine = set(geometry.machine_names())
     names = [n for n in whole.names if n not in machine]
+    own = session.instrument.parameters()
     record = {
         "folds": folds,
         "seed": seed,
         "quantities": names,
+        "held": [n for n, a, v in zip(own.names, asked, vary, strict=True) if a and not v],
         "values": {n: whole.parameters[n] for n in names},
         "stderr": {n: whole.standard_errors[n] for n in names},
         "leg_rms_mm": whole.leg_rms_after,
         "noise": noise.describe(),
     }
     return _with_expected(_merge(parts, m, record), geometry, whole.calibrated_instruments()[0], noise, folds)
+
+
+def check_folds(data: Any, instrument: MeasurementModel | None = None, folds: int | None = None) -> None:
+    """Refuse ``folds`` given for a session with nothing to re-register (the full pose, or an
+    instrument whose quantities are all fixed): no fold would be drawn, and the option would be
+    ignored silently. ``None`` (not given) is always accepted.
+
+    Raises
+    ------
+    ValidationError
+        Naming what the instrument is and why the folds cannot act.
+    """
+    if folds is None:
+        return
+    inst = as_sessions(data, instrument)[0].instrument
+    if not (inst.unregistered or quantity_mask(inst).any()):
+        raise ValidationError(
+            f"--folds {folds}: {inst.describe()} has nothing to re-register (no free frame, tool or "
+            "other quantity), so the poses are not dealt into folds; leave --folds out"
+        )
 
 
 def _with_expected(
@@ -351,25 +400,6 @@ def _uncertainty(
     return tuple(order), cov[np.ix_(index, index)], gauge[index], noise
 
 
-def _free_vary(inst: MeasurementModel) -> NDArray[np.bool_]:
-    return np.asarray(inst.parameters().vary, dtype=bool)
-
-
-def _free(inst: MeasurementModel) -> bool:
-    """Whether the instrument has quantities validation re-registers."""
-    return inst.unregistered or bool(_free_vary(inst).any())
-
-
-def _register(geometry: Geometry, session: Session, noise: NoiseModel | None) -> Any:
-    """The instrument's free quantities fitted to a session with the machine fixed."""
-    from hexcal.calibration.identify import estimate
-
-    return estimate(
-        geometry, session, "ml", fit=(), noise="auto" if noise is None else noise, with_bound=False,
-        diagnose=False, verdict=False,
-    )  # fmt: skip
-
-
 def _merge(parts: list[tuple[NDArray[np.intp], ValidationResult]], m: int, record: dict) -> ValidationResult:
     """The folds' validations in the session's order."""
     order = np.empty(m, dtype=np.intp)
@@ -393,6 +423,7 @@ def _merge(parts: list[tuple[NDArray[np.intp], ValidationResult]], m: int, recor
         first.value_labels,
         record,
         measured_poses=stack(lambda r: r.measured_poses),
+        instrument_residuals=stack(lambda r: r.instrument_residuals),
     )
 
 
@@ -422,8 +453,10 @@ def _evaluate(geometry: Geometry, session: Session) -> ValidationResult:
     else:  # NaN where the instrument gives no pose
         position, orientation = pose_errors(fk.poses, measured, geometry.euler)
     errors = {} if inst.determines_pose else inst.errors(setup, fk.poses, values, geometry.euler)
+    observed, present = inst.observed(values)
+    own = np.where(present, inst.residual(setup, fk.poses, geometry.euler, observed), np.nan)
     labels = tuple(label.split()[-1] for label, _ in inst.value_groups())
     return ValidationResult(
         ids, residuals, fk.poses, position, orientation, errors, inst.describe(), labels,
-        measured_poses=measured,
+        measured_poses=measured, instrument_residuals=own,
     )  # fmt: skip

@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 
 from hexcal.calibration.accuracy import predicted_pose_accuracy
 from hexcal.calibration.accuracy_reasons import accuracy_findings
+from hexcal.calibration.diagnosis import likely_cause_first
 from hexcal.calibration.limits import (
     FAIL_FACTOR,
     GROSS_FACTOR,
@@ -283,7 +284,8 @@ def assess(
     verdict = Verdict(tuple(reasons), acc)
     if diagnose is not None:
         extra = diagnose(verdict.status == "fail")
-        verdict = Verdict(tuple(reasons) + tuple(extra), acc)
+        # the likely cause (radians in degree columns, swapped columns) before its consequences
+        verdict = Verdict(tuple(likely_cause_first([*reasons, *extra])), acc)
     return verdict
 
 

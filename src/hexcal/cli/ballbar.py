@@ -4,7 +4,8 @@
 ``candidates --ballbar SETUP`` writes the feasible circles of the bar (its ball and length)
 at the pivots given by ``--pivots`` (default: seven around the workspace's centre), in the
 planes of ``--planes``, the platform level and, with ``--tilt``, tilted about x and y, both
-feed directions, ``--points`` per circle; ids ``p{pivot}.c{circle}.{ccw|cw}.{point}``.
+feed directions, ``--points`` per circle; ids ``p{pivot}.c{circle}.{ccw|cw}.{point}``, or
+``NAME.c...`` for a pivot given as ``NAME=x,y,z`` (a name no other session of the campaign has).
 ``select --ballbar SETUP --circles N`` chooses N of those circles (and so the pivots) for
 the machine, with the predicted accuracy. The pose file then holds every chosen circle; the
 rows of one pivot (ids ``p{k}.``) are one session, measured with the setup of that pivot.
@@ -23,12 +24,15 @@ from hexcal.cli.common import CommandError, check_outputs, choice, load_geometry
 from hexcal.cli.noise import parse_noise
 
 
-def _pivots(text: str | None) -> Any:
+def _pivots(text: str | None) -> tuple[Any, Any]:
+    """The pivots of ``--pivots 'x,y,z;NAME=x,y,z'`` and their names (None: the default)."""
     if text is None:
-        return None
-    rows = []
+        return None, None
+    rows, names = [], []
     for item in text.split(";"):
-        parts = item.replace(" ", "").split(",")
+        name, sep, point = item.strip().rpartition("=")
+        names.append(name.strip() if sep else None)
+        parts = point.replace(" ", "").split(",")
         try:
             values = [float(v) for v in parts]
         except ValueError:
@@ -36,7 +40,7 @@ def _pivots(text: str | None) -> Any:
         if len(values) != 3 or not all(math.isfinite(v) for v in values):
             raise CommandError(f"--pivots: {item!r} is not three finite numbers x,y,z (mm)")
         rows.append(values)
-    return rows
+    return rows, names
 
 
 def circles_of(args: argparse.Namespace) -> tuple[Any, Any, int]:
@@ -50,25 +54,37 @@ def circles_of(args: argparse.Namespace) -> tuple[Any, Any, int]:
     setup = load_setup(args.ballbar)
     if setup.kind != "ballbar":
         raise CommandError(f"--ballbar {args.ballbar}: not a ballbar setup (it has no 'ballbar:' mapping)")
-    planes = tuple(p.strip() for p in args.planes.split(",") if p.strip())
-    unknown = [p for p in planes if p not in PLANES]
-    if unknown or not planes:
-        raise CommandError(f"--planes: {', '.join(unknown) or 'none'}; give some of xy, xz, yz")
-    if not (math.isfinite(args.tilt) and 0 <= args.tilt < 45):
-        raise CommandError(f"--tilt {args.tilt}: a tilt from 0 to 45 degrees")
-    if not math.isfinite(args.d0):
-        raise CommandError(f"--d0 {args.d0}: not a finite number")
+    given: dict[str, Any] = {}  # the options given; the library's defaults for the others
+    if args.planes is not None:
+        planes = tuple(p.strip() for p in args.planes.split(",") if p.strip())
+        unknown = [p for p in planes if p not in PLANES]
+        if unknown or not planes:
+            raise CommandError(f"--planes: {', '.join(unknown) or 'none'}; give some of xy, xz, yz")
+        given["planes"] = planes
+    if args.tilt is not None:
+        if not (math.isfinite(args.tilt) and 0 <= args.tilt < 45):
+            raise CommandError(f"--tilt {args.tilt}: a tilt from 0 to 45 degrees")
+        given["tilt"] = float(np.deg2rad(args.tilt))
+    if args.d0 is not None:
+        if not math.isfinite(args.d0):
+            raise CommandError(f"--d0 {args.d0}: not a finite number")
+        given["d0"] = args.d0
+    if args.points is not None:
+        given["points"] = args.points
+    pivots, names = _pivots(args.pivots)
     circles, dropped = ballbar_circles(
-        geometry, setup, _pivots(args.pivots), planes, float(np.deg2rad(args.tilt)), args.points, args.d0,
-        args.min_distance,
-    )  # fmt: skip
+        geometry, setup, pivots, min_distance=args.min_distance, names=names, **given
+    )
     if circles.n_circles == 0:
         raise CommandError(f"--ballbar: none of the {dropped} circle(s) is feasible for this machine")
     return geometry, circles, dropped
 
 
 def _pivot_lines(circles: Any) -> list[str]:
-    return [f"  pivot {k + 1}: [{', '.join(f'{v:g}' for v in p)}] mm" for k, p in enumerate(circles.pivots)]
+    return [
+        f"  {circles.pivot_title(k)}: [{', '.join(f'{v:g}' for v in p)}] mm (ids {circles.names[k]}.*)"
+        for k, p in enumerate(circles.pivots)
+    ]
 
 
 def cmd_candidates(args: argparse.Namespace) -> None:
@@ -86,7 +102,7 @@ def cmd_candidates(args: argparse.Namespace) -> None:
 def cmd_select(args: argparse.Namespace) -> None:
     """Circles and pivots for the machine, with the predicted accuracy."""
     from hexcal.core.text import printable
-    from hexcal.design.ballbar_plan import circle_accuracy, select_circles
+    from hexcal.design.ballbar_selection import circle_accuracy, select_circles
     from hexcal.io import atomic_write, write_poses
     from hexcal.report.jsonout import json_text
 
@@ -95,12 +111,14 @@ def cmd_select(args: argparse.Namespace) -> None:
         raise CommandError("--html: select --ballbar writes the pose file and --json only")
     geometry, circles, dropped = circles_of(args)
     noise = parse_noise(args.noise, choice(args.noise_dist, ("uniform", "normal"), "--noise-dist"))
-    chosen = select_circles(geometry, circles, args.circles, noise, args.fit)
+    chosen = select_circles(geometry, circles, *([] if args.circles is None else [args.circles]), noise=noise,
+                            fit=args.fit)  # fmt: skip
     acc = circle_accuracy(geometry, chosen.circles, noise, args.fit)
     used = [int(p) + 1 for p in chosen.pivots_used]
     lines = [
-        f"{args.circles} ballbar circle(s) chosen of {circles.n_circles} feasible "
-        f"({dropped} infeasible left out), at {len(used)} pivot(s): {', '.join(f'pivot {p}' for p in used)}",
+        f"{len(chosen.chosen)} ballbar circle(s) chosen of {circles.n_circles} feasible "
+        f"({dropped} infeasible left out), at {len(used)} pivot(s): "
+        f"{', '.join(circles.pivot_title(p - 1) for p in used)}",
         *(f"  {label}" for label in chosen.circles.labels),
         *(line for k, line in enumerate(_pivot_lines(circles)) if k + 1 in used),
         f"predicted after calibration ({acc['circle_poses']} poses, {acc['parameters']} parameters, "
@@ -114,7 +132,11 @@ def cmd_select(args: argparse.Namespace) -> None:
     if args.json:
         data = {
             "circles": [
-                {"label": label, "pivot": int(chosen.circles.pivot[k]) + 1}
+                {
+                    "label": label,
+                    "pivot": int(chosen.circles.pivot[k]) + 1,
+                    "pivot_name": circles.names[int(chosen.circles.pivot[k])],
+                }
                 for k, label in enumerate(chosen.circles.labels)
             ],
             "pivots": {str(p): [float(v) for v in circles.pivots[p - 1]] for p in used},

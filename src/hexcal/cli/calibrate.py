@@ -2,9 +2,9 @@
 
 Every instrument takes the same path: a data file is read with its setup (``--setup``; none
 for the full pose in the base frame) into a session, and the library does the rest
-(:func:`hexcal.calibration.estimate`, :func:`hexcal.calibration.validate`,
-:func:`hexcal.simulation.simulate_session`). ``--data`` and ``--setup`` may be repeated: pairs in
-order, one setup for every data file, or none.
+(:func:`hexcal.calibrate`, :func:`hexcal.validate`, :func:`hexcal.simulation.simulate_session`).
+``--data`` and ``--setup`` may be repeated: pairs in order, one setup for every data file, or
+none.
 
 Imports only the standard library and :mod:`hexcal.cli.common` at its top; each command
 imports the library parts it needs when it runs, calls the library and renders the result
@@ -194,62 +194,49 @@ def _split_option(values: list[str] | None) -> Any:
 
 
 def cmd_validate(args: argparse.Namespace) -> None:
-    """Prediction errors of a calibration (and optionally the nominal geometry) on held-out data."""
-    from hexcal.calibration import validate
-    from hexcal.io import write_table
-    from hexcal.report import render, validation_dict, validation_json, validation_table
+    """Prediction errors of a calibration (and optionally the nominal geometry) on held-out data;
+    the library's warnings (legs beyond a stroke model's calibrated stroke) printed."""
+    from hexcal.io import atomic_write
+    from hexcal.workflow import validate
+    from hexcal.workflow.validation import check_options
 
     check_outputs(args.out, args.html, args.json, args.polar)
-    if args.folds < 2:
-        raise CommandError(f"--folds must be at least 2, got {args.folds}")
+    options = {"iso230_4": args.iso230_4, "iso9283": args.iso9283, "visit_tolerance": args.visit_tolerance}
+    check_options(**options, folds=args.folds, polar=bool(args.polar))
     geometry = load_geometry(args.geometry, args.euler)
     sessions = read_sessions(args, geometry)
-    if len(sessions) != 1:
-        raise CommandError("validate: give one --data file (validate each session on its own)")
-    session = sessions[0]
-    from hexcal.cli.iso import check_iso, iso_page, iso_results
-
-    check_iso(args, session)
-    options = {"folds": args.folds, "seed": args.seed}
-    calibrated = validate(geometry, session, **options)
-    nominal = None
-    if args.nominal:
-        calibrated_setup = (session.instrument.setup_dict() or {}).get("calibration") is not None
-        if calibrated.registration is None and calibrated_setup:
-            raise CommandError(
-                "--nominal with a calibrated setup whose quantities are all fixed: they were calibrated "
-                "with the machine, so the nominal machine cannot be judged through them; leave the frame "
-                "free (auto, or not in fixed:) so that validate re-registers it for each machine"
-            )
-        nominal = validate(load_geometry(args.nominal, geometry.euler), session, **options)
-    print(render("validation", validation_dict(calibrated, nominal)))
-    iso = iso_results(args, session, geometry.euler, calibrated, nominal)
+    nominal = load_geometry(args.nominal, geometry.euler) if args.nominal else None
+    files = {"geometry": args.geometry, "nominal": args.nominal}
+    files |= _numbered("data", args.data) | _numbered("setup", args.setup)
+    validation = validate(
+        geometry, sessions, nominal=nominal, folds=args.folds, seed=args.seed,
+        inputs=inputs_record(files, args), **options,
+    )  # fmt: skip
+    print(validation.report())
+    for line in validation.warnings:
+        warn(f"hexcal: warning: {line}")
+    if args.polar:
+        validation.save_polar(args.polar)
+        print(f"wrote the polar plot to {args.polar}")
     if args.out:
-        columns, rows, ids, comment = validation_table(calibrated, nominal, calibrated.ids)
-        write_table(args.out, columns, rows, ids, comment=comment, missing=True)
+        validation.save_table(args.out)
         print(f"wrote the per-pose table to {args.out}")
     if args.json:
-        from hexcal.io import atomic_write
-
         with atomic_write(args.json) as fh:
-            fh.write(
-                render(
-                    "validation", validation_json(calibrated, nominal) | ({"iso": iso} if iso else {}), "json"
-                )
-            )
+            fh.write(validation.report("json"))
         print(f"wrote the JSON summary to {args.json}")
     if args.html:
-        from hexcal.io import atomic_write
-        from hexcal.report import render_html, validation_report
-
-        results = {"calibrated": calibrated} | ({"nominal": nominal} if nominal else {})
-        files = _given(geometry=args.geometry, data=args.data, nominal=args.nominal, setup=args.setup)
         with atomic_write(args.html) as fh:
-            if iso:
-                fh.write(iso_page(args, iso, files, calibrated, nominal))
-            else:
-                fh.write(render_html(validation_report(results, inputs_record(files, args))))
+            fh.write(validation.html())
         print(f"wrote the HTML report to {args.html}")
+
+
+def _numbered(label: str, paths: list[str] | None) -> dict[str, str]:
+    """Input files by role: ``data`` for one file, ``data 1``, ``data 2``, ... for several."""
+    paths = paths or []
+    if len(paths) == 1:
+        return {label: paths[0]}
+    return {f"{label} {k + 1}": path for k, path in enumerate(paths)}
 
 
 def cmd_synthesize(args: argparse.Namespace) -> None:
@@ -263,10 +250,12 @@ def cmd_synthesize(args: argparse.Namespace) -> None:
     instrument = load_instrument(args.setup, nominal.euler)
     if instrument.unregistered:
         raise CommandError(f"{args.setup}: simulation needs the true instrument frame, not auto")
-    poses, ids = read_poses(args.poses, nominal.euler, **table_reading(args))
+    poses, ids, covariates = read_poses(args.poses, nominal.euler, **table_reading(args), covariates=True)
     noise = parse_noise(args.noise, args.noise_dist)
     options = {"missing_rate": args.missing_rate} if args.missing_rate else {}
-    session = simulate_session(nominal, true, instrument, poses, noise, args.seed, tuple(ids), **options)
+    session = simulate_session(
+        nominal, true, instrument, poses, noise, args.seed, tuple(ids), covariates, **options
+    )
     comment = f"simulated: nominal {args.nominal}, true {args.true}, seed {args.seed}, noise {noise}"
     comment += "".join(f", {label} {value}" for label, value in _given(setup=args.setup).items())
     comment += f", missing rate {args.missing_rate:g}" if args.missing_rate else ""
@@ -394,11 +383,14 @@ def register(sub: Any) -> None:
         help="save the summary as JSON (position_rms_mm, orientation_rms_rad, leg_rms_mm, maxima, the "
         "registration, what the calibration expected)",
     )
+    from hexcal.calibration.limits import VALIDATION_FOLDS  # constants only: no numpy
+
     p.add_argument(
         "--folds",
         type=int,
-        default=5,
-        help="folds of the cross-validated re-registration of a free frame or tool (default 5)",
+        default=None,
+        help=f"folds of the cross-validated re-registration of a free frame or tool (default "
+        f"{VALIDATION_FOLDS}; refused when nothing is re-registered)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the poses' folds (default 0)")
     p.add_argument("--html", metavar="FILE", help="save a self-contained HTML report with figures")

@@ -43,15 +43,15 @@ def cmd_compensate(args: argparse.Namespace) -> None:
     if args.gcode:
         _compensate_program(args)
         return
-    from hexcal.core import compensate
-    from hexcal.io import read_table, table_poses, write_legs
+    from hexcal.core import compensate, stroke_excess
+    from hexcal.io import read_table, table_covariates, table_poses, write_legs
 
     check_outputs(args.out, args.corrected_poses)
     if args.corrected_poses and not args.nominal:
         raise CommandError("--corrected-poses needs --nominal (the controller's geometry)")
     geometry = load_geometry(args.geometry, args.euler)
     table = read_table(args.poses, **table_reading(args))
-    targets, ids = table_poses(table, geometry.euler), table.ids()
+    targets, ids, covariates = table_poses(table, geometry.euler), table.ids(), table_covariates(table)
     nominal = load_geometry(args.nominal, geometry.euler) if args.nominal else None
     comp = compensate(geometry, targets, ids, nominal)
     bad = comp.infeasible_ids
@@ -68,18 +68,23 @@ def cmd_compensate(args: argparse.Namespace) -> None:
     lengths, readings = comp.lengths, comp.readings
     if not keep.all():  # (every target feasible: no copies of the whole arrays)
         lengths, readings = lengths[keep], readings[keep]
-    write_legs(args.out, lengths, readings, kept_ids)
+    covariates = covariates.subset(keep)  # carried from the targets to the commands
+    write_legs(args.out, lengths, readings, kept_ids, covariates=covariates)
+    beyond = stroke_excess(geometry, readings, ids=kept_ids)
+    if beyond is not None and (line := beyond.warning("target(s)")):
+        warn(f"hexcal: warning: {line}")
     if args.corrected_poses and comp.corrected_poses is not None:
-        _write_poses_like(table, args.corrected_poses, comp.corrected_poses[keep], kept_ids, geometry.euler)
+        corrected = comp.corrected_poses[keep]
+        _write_poses_like(table, args.corrected_poses, corrected, kept_ids, geometry.euler, covariates)
         print(f"wrote corrected target poses for the nominal controller to {args.corrected_poses}")
     if bad:
         warn(f"hexcal: warning: skipped {len(bad)} infeasible target(s): {id_list(list(bad))}")
     print(f"wrote leg commands for {len(kept_ids)} target(s) to {args.out}")
 
 
-def _write_poses_like(table: Any, path: str, poses: Any, ids: list[str], euler: str) -> None:
+def _write_poses_like(table: Any, path: str, poses: Any, ids: list[str], euler: str, covariates: Any) -> None:
     """Write poses with the orientation columns of the input table: radians ``a, b, c``,
-    degrees ``a_deg, b_deg, c_deg`` or quaternions ``qx, qy, qz, qw``."""
+    degrees ``a_deg, b_deg, c_deg`` or quaternions ``qx, qy, qz, qw``; then the covariates."""
     import numpy as np
 
     from hexcal.io import ORIENTATION_GROUPS, write_table
@@ -93,8 +98,9 @@ def _write_poses_like(table: Any, path: str, poses: Any, ids: list[str], euler: 
         angles = Rotation.from_euler(euler, poses[:, 3:]).as_quat() if len(poses) else np.empty((0, 4))
     else:
         angles = poses[:, 3:]
-    columns = ("x", "y", "z", *ORIENTATION_GROUPS[group])
-    write_table(path, columns, np.concatenate([poses[:, :3], angles], axis=1), ids)
+    extra = covariates.to_columns()
+    columns = ("x", "y", "z", *ORIENTATION_GROUPS[group], *extra)
+    write_table(path, columns, np.column_stack([poses[:, :3], angles, *extra.values()]), ids)
 
 
 def _warn_outside_box(geometry: Any, poses: Any, ids: list[str], what: str) -> None:
@@ -223,6 +229,7 @@ def _compensate_program(args: argparse.Namespace) -> None:
     import os
     from importlib.metadata import version
 
+    from hexcal.calibration import poses_stroke_excess
     from hexcal.core import PathError, correct_path, correct_poses
     from hexcal.errors import InputError
     from hexcal.io import atomic_write, gcode
@@ -255,6 +262,7 @@ def _compensate_program(args: argparse.Namespace) -> None:
     began, shown, moves, points, lines = time.perf_counter(), 0, 0, 0, 0
     worst = [0.0, 0.0]
     targets_out, corrected_out = _Lines(), _Lines()
+    beyond = None
     last = start_corrected
     with atomic_write(args.out) as fh:
         writer = gcode.ProgramWriter(fh, header, decimals, start_corrected)
@@ -270,6 +278,8 @@ def _compensate_program(args: argparse.Namespace) -> None:
             numbers = (block.first_line + block.move_lines).tolist()
             targets_out.add([numbers[k] for k in _outside_box(geometry, block.moves.end)])
             corrected_out.add(sorted({numbers[path.move[k]] for k in _outside_box(geometry, path.corrected)}))
+            part = poses_stroke_excess(geometry, block.moves.end, ids=[f"line {n}" for n in numbers])
+            beyond = part if beyond is None or part is None else beyond.merge(part)
             moves, points, lines = moves + len(block.moves), points + len(path.move), lines + len(block.lines)
             worst = [max(worst[0], path.position), max(worst[1], path.orientation)]
             if not args.quiet and (block.chars * 10 // size > shown or block.chars >= size):
@@ -279,6 +289,8 @@ def _compensate_program(args: argparse.Namespace) -> None:
                 print(note, file=sys.stderr, flush=True)
     targets_out.warn("target(s) of the program")
     corrected_out.warn("corrected move(s)")
+    if beyond is not None and (line := beyond.warning("target(s) of the program")):
+        warn(f"hexcal: warning: {line}")
     print(
         f"wrote {args.out}: {lines:,} lines read, {moves:,} moves corrected as {points:,} "
         f"({points - moves:,} added to follow the path); largest deviation at the checked midpoints "

@@ -7,6 +7,7 @@ imports the library parts it needs when it runs (``hexcal ik`` never loads scipy
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterator
 from typing import Any
 
 from hexcal.cli.common import (
@@ -31,44 +32,79 @@ def cmd_preset(args: argparse.Namespace) -> None:
     print(f"wrote preset {args.name} to {args.out}")
 
 
+def _first_then(first: list[Any], rest: Iterator[Any]) -> Iterator[Any]:
+    """The block of ``first`` (a block read ahead, for its columns; let go once given, so that
+    memory holds one block at a time), then the blocks of ``rest``."""
+    while first:
+        yield first.pop()
+    yield from rest
+
+
 def cmd_ik(args: argparse.Namespace) -> None:
     """Leg lengths and readings of the poses of a file, block by block (bounded memory).
 
-    Warns of poses beyond the leg limits; ``--out -`` writes the table to standard output.
+    Warns of poses beyond the leg limits, and beyond a stroke model's calibrated stroke;
+    ``--out -`` writes the table to standard output. The covariate columns of the poses (time,
+    leg temperatures, payload) are carried along.
     """
     import numpy as np
 
-    from hexcal.core import inverse_kinematics, is_feasible, leg_readings
+    from hexcal.core import inverse_kinematics, is_feasible, leg_readings, stroke_excess
     from hexcal.io import LEG_LENGTH_COLUMNS, LEG_READING_COLUMNS, iter_poses, write_table_blocks
 
     geometry = load_geometry(args.geometry, args.euler)
     bad: list[str] = []
     outside = 0
+    beyond = None
+
+    read = iter_poses(args.poses, geometry.euler, **table_reading(args), covariates=True)
+    first = [next(read)]  # its covariate columns are the file's
+    extra = tuple(first[0][2].to_columns())
 
     def blocks() -> Any:
-        nonlocal outside
-        for poses, ids in iter_poses(args.poses, geometry.euler, **table_reading(args)):
+        nonlocal outside, beyond
+        for poses, ids, covariates in _first_then(first, read):
             lengths = inverse_kinematics(geometry, poses)
             feasible = is_feasible(geometry, poses, margin=1e-6)
             if not feasible.all():
                 rows = np.flatnonzero(~feasible)
                 outside += rows.size
                 bad.extend(ids[k] for k in rows[: max(0, 21 - len(bad))])
-            yield np.concatenate([lengths, leg_readings(geometry, lengths)], axis=1), ids
+            readings = leg_readings(geometry, lengths)
+            part = stroke_excess(geometry, readings, ids=ids)
+            beyond = part if beyond is None or part is None else beyond.merge(part)
+            more = covariates.to_columns().values()
+            yield np.column_stack([lengths, readings, *more]), ids
 
-    rows = write_table_blocks(args.out, LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS, blocks())
+    rows = write_table_blocks(args.out, LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS + extra, blocks())
     if outside:
         more = f" and {outside - len(bad)} more" if outside > len(bad) else ""
         warn(f"hexcal: warning: {outside} pose(s) outside the leg length limits: {', '.join(bad)}{more}")
+    _warn_beyond_stroke(beyond, "pose(s)")
     if args.out != "-":
         print(f"wrote leg lengths of {rows} pose(s) to {args.out}")
 
 
+def _warn_beyond_stroke(beyond: Any, what: str) -> None:
+    """The library's warning line of rows beyond the calibrated stroke, if any."""
+    line = beyond.warning(what) if beyond is not None else None
+    if line:
+        warn(f"hexcal: warning: {line}")
+
+
 def cmd_fk(args: argparse.Namespace) -> None:
-    """Poses of the leg lengths (or readings) of a file, by forward kinematics, block by block."""
+    """Poses of the leg lengths (or readings) of a file, by forward kinematics, block by block
+    (the covariate columns of the legs carried along); warns of readings beyond a stroke model's
+    calibrated stroke."""
     import numpy as np
 
-    from hexcal.core import forward_kinematics, leg_lengths, leg_limit_violations, pose_jacobian_from_arrays
+    from hexcal.core import (
+        forward_kinematics,
+        leg_lengths,
+        leg_limit_violations,
+        pose_jacobian_from_arrays,
+        stroke_excess,
+    )
     from hexcal.io import iter_legs, iter_poses, write_table_blocks
 
     geometry = load_geometry(args.geometry, args.euler)
@@ -81,11 +117,16 @@ def cmd_fk(args: argparse.Namespace) -> None:
         )
         home_step = np.linalg.inv(home_jacobian)
     stats = {"rows": 0, "residual": 0.0, "iterations": 0}
+    read = iter_legs(args.legs, **table_reading(args))
+    first = [next(read)]  # its covariate columns are the file's
+    extra = tuple(first[0].covariates.to_columns())
+    beyond = None
 
     def blocks() -> Any:
+        nonlocal beyond
         pending = np.empty((0, 6))
         warned = False
-        for legs in iter_legs(args.legs, **table_reading(args)):
+        for legs in _first_then(first, read):
             if legs.readings is not None:  # the controller's readings, through l0 and the gains
                 if legs.has_lengths and not warned:  # the lengths stay unconverted
                     warn(
@@ -93,6 +134,8 @@ def cmd_fk(args: argparse.Namespace) -> None:
                     )
                     warned = True
                 lengths = leg_lengths(geometry, legs.readings)
+                part = stroke_excess(geometry, legs.readings, ids=legs.ids)
+                beyond = part if beyond is None or part is None else beyond.merge(part)
             else:
                 lengths = legs.lengths
             short, long = leg_limit_violations(geometry, lengths)
@@ -134,11 +177,12 @@ def cmd_fk(args: argparse.Namespace) -> None:
             stats["rows"] += len(lengths)
             stats["residual"] = max(stats["residual"], float(result.residual.max()))
             stats["iterations"] = max(stats["iterations"], int(result.iterations.max()))
-            yield result.poses, legs.ids
+            yield np.column_stack([result.poses, *legs.covariates.to_columns().values()]), legs.ids
         if guesses is not None and (len(pending) or next(guesses, None) is not None):
             raise CommandError(f"{args.guess}: more guess poses than rows of {args.legs}")
 
-    write_table_blocks(args.out, ("x", "y", "z", "a", "b", "c"), blocks())
+    write_table_blocks(args.out, ("x", "y", "z", "a", "b", "c", *extra), blocks())
+    _warn_beyond_stroke(beyond, "row(s) of readings")
     if args.out != "-":
         print(
             f"wrote {stats['rows']} pose(s) to {args.out} (max leg residual "

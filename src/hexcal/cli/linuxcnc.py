@@ -121,6 +121,12 @@ def cmd_export(args: argparse.Namespace) -> None:
             f"copy {COMP_FILES[0]} .. {COMP_FILES[-1]} into the machine's configuration folder (the joints' "
             "COMP_FILE tables of the stroke leg model)"
         )
+        from hexcal.calibration import workspace_stroke_excess
+
+        beyond = workspace_stroke_excess(geometry)
+        line = beyond.warning("poses of the workspace box (its corners and random poses)") if beyond else None
+        if line:
+            _warn(f"{line}; the tables hold their end trims there, as the model holds its curve")
 
 
 def _parse_home(text: str) -> list[float]:
@@ -171,5 +177,5 @@ def cmd_import(args: argparse.Namespace) -> None:
         _warn(warning)
     print(
         f"wrote the geometry of {args.hal}{' and ' + args.ini if args.ini else ''} to {out} "
-        "(euler xyz: hexcal's a b c are G-code A B C in radians)"
+        + "(euler xyz: hexcal's a b c are G-code A B C in radians)"
     )

@@ -95,7 +95,7 @@ def _run(args: argparse.Namespace) -> None:
 
         token = ROW_LIMIT.set(args.max_rows)
     try:
-        with safety.command_outputs(args):
+        with safety.command_outputs(args), safety.progress_lines(args):
             args.func(args)
     finally:
         if token is not None:

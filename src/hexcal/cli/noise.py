@@ -115,12 +115,8 @@ def noise_from_args(args: argparse.Namespace, instruments: Sequence[Any] = ()) -
 
 
 def refuse_zero_noise(noise: NoiseModel, what: str) -> NoiseModel:
-    """``noise``, unless it is zero in every group (legs and the whole pose covariance): then no
-    weight, bound or verdict can come from it, and :class:`CommandError` says so (``what``: what
-    would need it)."""
-    if noise.leg == 0 and not noise.has_pose_noise:
-        raise CommandError(
-            f"--noise: every noise is 0, so {what} would be 0 by construction; give the instruments' "
-            "σ (e.g. leg=0.01,pos=0.025,ang=0.001), or leave --noise out to learn it from the data"
-        )
-    return noise
+    """``noise``, unless it is zero in every group (the library's rule,
+    :func:`hexcal.core.noise.require_noise`, said before any file is read)."""
+    from hexcal.core.noise import require_noise
+
+    return require_noise(noise, what)

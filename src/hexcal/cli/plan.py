@@ -287,7 +287,9 @@ def cmd_select(args: argparse.Namespace) -> None:
         from hexcal.cli.common import inputs_record
         from hexcal.report import render_html, selection_report
 
-        page = selection_report(data, selection.poses, geometry.workspace, inputs_record({}, args))
+        files = {"geometry": args.geometry, "setup": args.setup}
+        files |= {f"candidates {k + 1}": f for k, f in enumerate(candidate_files(args.candidates))}
+        page = selection_report(data, selection.poses, geometry.workspace, inputs_record(files, args))
         with atomic_write(args.html) as fh:
             fh.write(render_html(page))
         print(f"wrote the HTML report to {args.html}")
@@ -297,15 +299,20 @@ def cmd_select(args: argparse.Namespace) -> None:
 def circle_options(p: argparse.ArgumentParser, select: bool = False) -> None:
     """The ballbar options of ``candidates`` and ``select`` (the work: hexcal.cli.ballbar)."""
     p.add_argument("--ballbar", metavar="FILE", help="ballbar setup YAML: its circles instead of poses")
-    p.add_argument("--pivots", help="ballbar pivots 'x,y,z;x,y,z', mm (default: seven about the centre)")
-    p.add_argument("--planes", default="xy,xz,yz", help="ballbar circle planes (of xy, xz, yz)")
     p.add_argument(
-        "--tilt", type=float, default=8.0, help="ballbar: circles also tilted ± this about x, y (deg)"
+        "--pivots",
+        help="ballbar pivots 'x,y,z;NAME=x,y,z', mm; NAME prefixes the ids (default p1, p2, ...; pivots: "
+        "seven about the centre)",
     )
-    p.add_argument("--points", type=int, default=12, help="ballbar: points per circle")
-    p.add_argument("--d0", type=float, default=0.0, help="ballbar: bar reading along the circles, mm")
+    p.add_argument("--planes", help="ballbar circle planes (of xy, xz, yz; default all three)")
+    p.add_argument("--tilt", type=float, help="ballbar: circles also tilted ± this about x, y (default 8°)")
+    p.add_argument("--points", type=int, help="ballbar: points per circle (default 12)")
+    p.add_argument("--d0", type=float, help="ballbar: bar reading along the circles, mm (default 0)")
+    needs = {dest: "ballbar" for dest in ("pivots", "planes", "tilt", "points", "d0")}
     if select:
-        p.add_argument("--circles", type=int, default=12, help="ballbar: circles to choose")
+        p.add_argument("--circles", type=int, help="ballbar: circles to choose (default 12)")
+        needs["circles"] = "ballbar"
+    p.set_defaults(needs=needs)  # each refused without --ballbar (cli.safety)
 
 
 def register(sub: Any) -> None:

@@ -8,7 +8,7 @@
   hexcal starts (``nohup``) stays ignored; a forked child (a pool worker) that inherits the
   handlers ends at once on a signal, as by default.
 - **Options**: counts positive, ``--jobs`` not negative (0 = all cores), tolerances finite and
-  positive, ``--max-rows`` positive, and sizes within :data:`MEMORY_BUDGET` before anything
+  positive, ``--max-rows`` positive, and sizes within the library's memory budget before anything
   is allocated (:func:`check_options`).
 - **Outputs**: a command declares ``inputs``, ``outputs`` and ``folders`` (names of its
   options), the files named inside option values (``input_lists``) and the files it writes
@@ -37,10 +37,6 @@ from collections.abc import Iterator
 from typing import Any
 
 from hexcal.cli.common import CommandError
-
-#: Bytes the arrays of one command may take, checked from the options before allocation
-#: (``errormap --grid/--levels/--points/--draws``, ``candidates``/``select --candidates``).
-MEMORY_BUDGET = 2 * 1024**3
 
 #: Options that count things: each must be at least 1.
 COUNT_OPTIONS = ("trials", "n", "draws", "levels", "grid", "points", "max_rows")
@@ -155,11 +151,13 @@ def _candidate_count(spec: str) -> int:
 
 
 def _budget(option: str, size: int, what: str) -> None:
-    if size > MEMORY_BUDGET:
-        raise CommandError(
-            f"{option}: {what} would need about {size / 1024**3:.1f} GiB, over hexcal's memory "
-            f"budget of {MEMORY_BUDGET / 1024**3:.0f} GiB; choose a smaller value"
-        )
+    """The library's one budget (:data:`hexcal.core.resources.MEMORY_BUDGET`), checked from the
+    options before anything is read: ``errormap --grid/--levels/--points/--draws``,
+    ``candidates``/``select --candidates``, ``--trials``; the library checks the sizes that
+    only it can count (ballbar pivots and circles) itself, before allocating."""
+    from hexcal.core.resources import check_memory  # standard library only: no numpy
+
+    check_memory(option, size, what)
 
 
 def _same_value(text: str) -> Any:
@@ -185,9 +183,23 @@ def _check_lists(values: dict[str, Any]) -> None:
             seen[key] = item
 
 
+def _check_needs(values: dict[str, Any]) -> None:
+    """Refuse an option that cannot act without another (``set_defaults(needs={dest: other})``
+    in a command's ``register``: ``candidates --points`` draws the circles of ``--ballbar``).
+    Such options default to None, the library deciding their defaults; ``needs`` is consumed."""
+    for dest, other in (values.pop("needs", None) or {}).items():
+        if values.get(dest) is not None and not values.get(other):
+            raise CommandError(
+                f"{_option(dest)} acts only with {_option(other)}; give {_option(other)}, or leave "
+                f"{_option(dest)} out"
+            )
+
+
 def check_options(args: argparse.Namespace) -> None:
-    """Refuse nonsense values of the common options, and sizes over the memory budget."""
+    """Refuse nonsense values of the common options, options that cannot act, and sizes over
+    the memory budget."""
     values = vars(args)
+    _check_needs(values)
     for dest in COUNT_OPTIONS:
         value = values.get(dest)
         if isinstance(value, int) and value < 1:
@@ -332,6 +344,24 @@ def command_outputs(args: argparse.Namespace) -> Iterator[Any]:
             yield outputs
         finally:
             sys.stdout = real
+
+
+# -- progress --------------------------------------------------------------------------------
+#: Environment variable that turns progress lines on (``1``) or off (``0``) whatever stderr is.
+PROGRESS_VARIABLE = "HEXCAL_PROGRESS"
+
+
+def progress_lines(args: argparse.Namespace) -> contextlib.AbstractContextManager[Any]:
+    """The library's progress lines (:mod:`hexcal.core.progress`) on stderr while the command
+    runs: for a terminal (or ``HEXCAL_PROGRESS=1``), unless ``--quiet``; each long loop says
+    how far it is after its first seconds."""
+    wanted = os.environ.get(PROGRESS_VARIABLE)
+    on = sys.stderr.isatty() if wanted is None else wanted.strip() == "1"
+    if not on or getattr(args, "quiet", False):
+        return contextlib.nullcontext()
+    from hexcal.core.progress import reporting
+
+    return reporting(lambda line: print(line, file=sys.stderr, flush=True))
 
 
 # -- messages --------------------------------------------------------------------------------

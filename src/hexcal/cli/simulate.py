@@ -88,9 +88,9 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     campaign = instrument_campaign(instrument, args.fit, missing_rate=args.missing_rate)
     true, note = _true_machine(args, default="random")
     check_trials(args.trials)
-    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-    bad = [m for m in methods if m not in ESTIMATORS]
-    if bad or not methods:
+    methods = None if args.methods is None else [m.strip() for m in args.methods.split(",") if m.strip()]
+    bad = [m for m in methods or () if m not in ESTIMATORS]
+    if bad or methods == []:
         raise CommandError(
             f"--methods: unknown {', '.join(bad) or 'empty list'}; choose from {', '.join(ESTIMATORS)}"
         )
@@ -153,7 +153,8 @@ def cmd_simulate(args: argparse.Namespace) -> None:
     }
     study["true_machine"] = true.name if true else "random"
     if args.html:
-        _write_html(args, "study_report", study, {"geometry": args.geometry, "true": args.true})
+        files = {"geometry": args.geometry, "true": args.true, "setup": args.setup}
+        _write_html(args, "study_report", study, files)
     if out is not None:
         from hexcal.io import atomic_write, write_table
         from hexcal.report import plot_study, study_table
@@ -268,7 +269,9 @@ def register(sub: Any) -> None:
         "default: random, announced",
     )
     p.add_argument(
-        "--methods", default="paper,ml", help="estimators, comma-separated: ml, gls, length, paper"
+        "--methods",
+        help="estimators, comma-separated: ml, gls, length, paper (default paper,ml, those the "
+        "instrument allows: ml for targets and a ballbar)",
     )
     p.add_argument(
         "--strategies",

@@ -17,6 +17,8 @@ Public names
   kinematics (leg lengths of poses and back, readings and lengths through the leg model).
 - ``LegModel``, ``LinearLegs``, ``StrokeLegs``, ``LEG_MODELS``, ``register_leg_model``,
   ``leg_model_from_dict``: leg models (docs/leg-models.md).
+- ``stroke_excess``, ``StrokeExcess``, ``STROKE_MARGIN``: how far readings go beyond each leg's
+  calibrated stroke (where a stroke model holds its curve), and the margin commands warn beyond.
 - ``workspace_box``, ``workspace_corners``, ``box_corners``, ``random_poses``,
   ``random_interior``, ``is_feasible``, ``leg_limit_violations``, ``LEG_LIMIT_MARGIN``: the
   workspace box and the leg length limits.
@@ -44,6 +46,9 @@ _NAMES = {
     "LegModel": "legs",
     "LinearLegs": "legs",
     "StrokeLegs": "stroke_legs",
+    "STROKE_MARGIN": "stroke_legs",
+    "StrokeExcess": "stroke_legs",
+    "stroke_excess": "stroke_legs",
     "stroke_of": "stroke_legs",
     "with_leg_model": "stroke_legs",
     "MIN_POSES": "parameters",
@@ -125,6 +130,7 @@ __all__ = [
     "PARAMETER_NAMES",
     "POSE_NAMES",
     "PRESETS",
+    "STROKE_MARGIN",
     "Compensation",
     "CorrectedPath",
     "ForwardResult",
@@ -135,6 +141,7 @@ __all__ = [
     "Parameter",
     "ParameterSet",
     "PathError",
+    "StrokeExcess",
     "StrokeLegs",
     "box_corners",
     "check_euler",
@@ -159,6 +166,7 @@ __all__ = [
     "register_leg_model",
     "rotation_matrices",
     "select_parameters",
+    "stroke_excess",
     "workspace_box",
     "workspace_corners",
 ]

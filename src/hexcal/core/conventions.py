@@ -113,6 +113,16 @@ def rotation_matrices(angles: ArrayLike, euler: str = DEFAULT_EULER) -> NDArray[
     return np.moveaxis(rotation_matrices_t(flat_t, euler), -1, 0).reshape(batch + (3, 3))
 
 
+def rotation_and_axes(angles: ArrayLike, euler: str = DEFAULT_EULER) -> tuple[NDArray, NDArray]:
+    """:func:`rotation_matrices` and :func:`euler_axes` of the same angles ``(..., 3)`` in one
+    pass: ``(rotations (..., 3, 3), axes (..., 3, 3))``, each equal to its function's."""
+    check_euler(euler)
+    angles = np.asarray(angles, dtype=float)
+    batch = angles.shape[:-1]
+    rot, out = rotation_and_axes_t(angles.reshape(-1, 3).T, euler)
+    return np.moveaxis(rot, -1, 0).reshape(batch + (3, 3)), np.moveaxis(out, -1, 0).reshape(batch + (3, 3))
+
+
 def euler_axes(angles: ArrayLike, euler: str = DEFAULT_EULER) -> NDArray[np.float64]:
     """World-frame axes of the three elementary rotations.
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.errors import UsageError
+from hexcal.errors import InputError, UsageError
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,3 +122,27 @@ class NoiseModel:
         pos = self._draw(rng, self.position, (*shape, 3))
         ang = self._draw(rng, self.orientation, (*shape, 3))
         return np.concatenate([pos, ang], axis=-1)
+
+
+def require_noise(noise: NoiseModel, what: str, pose_noise: bool = True) -> NoiseModel:
+    """``noise``, unless it is zero in every group the measurement sees (the legs, and the pose
+    when ``pose_noise``, else only its position: a ballbar's reading): then no weight, bound
+    or prediction can come from it, and :class:`~hexcal.errors.InputError` says so (``what``:
+    what would need it). Every function that predicts an accuracy or weighs data calls this,
+    as ``identify`` refuses a zero ``--noise``.
+
+    >>> require_noise(NoiseModel(leg=0.01), "every predicted accuracy").leg
+    0.01
+    >>> require_noise(NoiseModel(leg=0, position=0, orientation=0), "every bound")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hexcal.errors.InputError: --noise: every noise is 0, so every bound would be 0 by construction; ...
+    """
+    seen = noise.has_pose_noise if pose_noise else noise.sigmas[1] > 0
+    if noise.leg == 0 and not seen:
+        zero = "every noise is 0" if pose_noise else "leg and pos are 0 (the noise of the legs and the bar)"
+        raise InputError(
+            f"--noise: {zero}, so {what} would be 0 by construction; give the instruments' "
+            "σ (e.g. leg=0.01,pos=0.025,ang=0.001), or leave --noise out to learn it from the data"
+        )
+    return noise

@@ -18,9 +18,19 @@ model's settings, stored in the geometry file with the terms::
       terms: {p2: [6 values, mm], p3: [6 values, mm]}
 
 Every ``|P_k| <= 1`` on the stroke, so a term moves a leg by at most its value: its solver
-scale is 1 mm, the scale of ``l0`` and of a joint coordinate (columns of one size). Outside
-the stroke the series extrapolates; :meth:`StrokeLegs.readings` (inverse kinematics,
-compensation) refuses a model whose length does not grow with the reading over the stroke.
+scale is 1 mm, the scale of ``l0`` and of a joint coordinate (columns of one size).
+
+**Beyond the stroke the curve is held** at its value at the nearer end: ``x_i`` is clipped to
+``[-1, 1]``, so a leg continues as the straight line of its gain ``g_i`` through the curve's end
+point (continuous, its slope ``g_i`` outside). A polynomial fitted over the readings a
+campaign covered says nothing about readings it did not reach, and its end derivatives are its
+least determined quantity (``P_k'(1) = k (k + 1) / 2``): a tangent continued from them grows
+without bound with the term's error. Held, the curve's error beyond the stroke is its error at
+the end, and the leg follows its mean gain there, as linear legs do. It is also LinuxCNC's own
+rule beyond a compensation table (the end trims held), so an exported table agrees with the
+model at every joint position (:mod:`hexcal.io.linuxcnc_comp`). The inverse always exists and
+is monotone when the length grows with the reading on the stroke (:meth:`StrokeLegs.readings`
+refuses a model where it does not); :func:`stroke_excess` says how far readings go beyond.
 
 >>> legs = StrokeLegs(3, np.zeros(6), np.full(6, 100.0))
 >>> block = np.concatenate([np.full(6, 600.0), np.ones(6), np.full(6, 0.1), np.zeros(6)])
@@ -32,6 +42,8 @@ compensation) refuses a model whose length does not grow with the reading over t
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -48,6 +60,14 @@ DEFAULT_DEGREE = 3
 
 #: Points per leg at which :meth:`StrokeLegs.readings` checks that the length grows.
 _CHECK_POINTS = 257
+
+#: Share of a leg's stroke that readings may pass either end by before commands warn
+#: (:func:`stroke_excess`): a little beyond the readings a campaign covered is usual (the
+#: corners of a workspace box, a new session), and the held curve changes slowly there.
+STROKE_MARGIN = 0.05
+
+#: Row identifiers :class:`StrokeExcess` keeps (the first rows beyond the margin).
+_KEPT_IDS = 20
 
 
 def legendre_values(x: NDArray[np.float64], degree: int) -> tuple[NDArray, NDArray]:
@@ -93,7 +113,8 @@ class StrokeLegs(LegModel):
 
     # -- the per-leg functions ------------------------------------------------------------
     def _x(self, reading: NDArray[np.float64]) -> NDArray[np.float64]:
-        return (2 * reading - self.low - self.high) / (self.high - self.low)
+        """The reading on ``[-1, 1]`` over the stroke, clipped there (the curve is held beyond)."""
+        return np.clip((2 * reading - self.low - self.high) / (self.high - self.low), -1.0, 1.0)
 
     def length(self, theta: NDArray[np.float64], reading: NDArray[np.float64]) -> NDArray[np.float64]:
         p, _ = legendre_values(self._x(reading), self.degree)
@@ -113,9 +134,13 @@ class StrokeLegs(LegModel):
         )
 
     def slope(self, theta: NDArray[np.float64], reading: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``d length / d reading``: the gain plus the curve's slope on the stroke (its ends
+        included, one-sided), the gain alone beyond it."""
+        reading = np.asarray(reading, dtype=float)
         _, d = legendre_values(self._x(reading), self.degree)
         curve = np.einsum("...k,...k->...", theta[..., 2:], d[..., 2:]) * 2 / (self.high - self.low)
-        return theta[..., 1] + curve
+        on = (reading >= self.low) & (reading <= self.high)
+        return theta[..., 1] + np.where(on, curve, 0.0)
 
     def stroke_range(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return self.low.copy(), self.high.copy()
@@ -126,7 +151,11 @@ class StrokeLegs(LegModel):
     # -- the inverse ------------------------------------------------------------------------
     def check_invertible(self, block: ArrayLike) -> None:
         """Refuse (:class:`GeometryError`, naming the leg) a block whose length does not grow
-        with the reading everywhere on a leg's stroke: no reading is then the one of a length."""
+        with the reading everywhere on a leg's stroke: no reading is then the one of a length.
+
+        Beyond the stroke the length grows with the gain, which is then above 0 too: it is the
+        first Legendre moment of the length over the stroke (the terms ``P_k``, ``k >= 2``, have
+        none), ``(3/2) ∫ l x dx = (3/2) ∫ (l(x) - l(0)) x dx > 0`` for a growing ``l``."""
         theta = self.thetas(block)
         if theta.ndim > 2:
             theta = theta.reshape(-1, N_LEGS, self.per_leg)
@@ -143,22 +172,39 @@ class StrokeLegs(LegModel):
             )
 
     def readings(self, block: ArrayLike, lengths: ArrayLike) -> NDArray[np.float64]:
-        """Readings ``(..., 6)`` of ``lengths`` by Newton's method (vectorised), after
-        :meth:`check_invertible`; :class:`GeometryError` where it does not converge."""
+        """Readings ``(..., 6)`` of ``lengths``, after :meth:`check_invertible`: beyond the
+        stroke the straight line of the gain (exact); on it, Newton's method kept inside the
+        bracket of the stroke's ends (vectorised; bisection where a step would leave it)."""
         self.check_invertible(block)
         theta = self.thetas(block)
         lengths = np.asarray(lengths, dtype=float)
-        reading = (lengths - theta[..., 0]) / theta[..., 1]
-        for _ in range(60):
-            step = (self.length(theta, reading) - lengths) / self.slope(theta, reading)
-            reading = reading - step
-            if np.all(np.abs(step) <= 1e-12 * (1.0 + np.abs(reading))):
-                return reading
-        worst = np.unravel_index(int(np.nanargmax(np.abs(step))), np.shape(step))
-        raise GeometryError(
-            f"leg {int(worst[-1]) + 1}: no reading gives the length {float(lengths[worst]):.6g} mm under the "
-            "stroke model (far outside its stroke?)"
+        shape = np.broadcast_shapes(theta.shape[:-1], lengths.shape)
+        theta = np.broadcast_to(theta, (*shape, self.per_leg))
+        lengths = np.broadcast_to(lengths, shape)
+        low, high = np.broadcast_to(self.low, shape), np.broadcast_to(self.high, shape)
+        at_low, at_high = self.length(theta, low), self.length(theta, high)
+        gain = theta[..., 1]
+        # beyond the ends: the line of the gain through the curve's end point
+        reading = np.where(
+            lengths <= at_low, low + (lengths - at_low) / gain, high + (lengths - at_high) / gain
         )
+        on = (lengths > at_low) & (lengths < at_high)
+        if not on.any():
+            return reading
+        lo, hi = low.copy(), high.copy()
+        span = np.where(on, at_high - at_low, 1.0)
+        x = np.where(on, low + (lengths - at_low) / span * (high - low), reading)  # the chord's reading
+        for _ in range(100):
+            error = np.where(on, self.length(theta, x) - lengths, 0.0)
+            lo, hi = np.where(error < 0, x, lo), np.where(error > 0, x, hi)
+            nxt = x - error / self.slope(theta, x)
+            nxt = np.where((nxt > lo) & (nxt < hi), nxt, 0.5 * (lo + hi))  # bisect when Newton leaves
+            nxt = np.where(error == 0, x, nxt)
+            done = np.all(np.abs(nxt - x) <= 1e-12 * (1.0 + np.abs(x)))
+            x = nxt
+            if done:
+                break
+        return x
 
     # -- settings and files -------------------------------------------------------------
     def settings(self) -> tuple[Any, ...]:
@@ -213,20 +259,180 @@ def _six(value: Any, what: str) -> NDArray[np.float64]:
 
 
 def stroke_of(geometry: Any, readings: ArrayLike | None = None) -> tuple[NDArray, NDArray]:
-    """Each leg's stroke in readings: from the geometry's leg length limits when it has them
-    (``(limit - l0) / g``), else the range of ``readings (m, 6)``; :class:`GeometryError` if
-    neither gives a stroke."""
+    """Each leg's stroke in readings: the range of ``readings (m, 6)`` when given (the stroke a
+    campaign covered, over which its curve is determined: beyond it the model holds its curve),
+    else, before any reading (planning), from the geometry's leg length limits
+    (``(limit - l0) / g``); :class:`GeometryError` if neither gives a stroke."""
+    if readings is not None and np.size(readings):
+        dl = np.asarray(readings, dtype=float).reshape(-1, N_LEGS)
+        low, high = np.nanmin(dl, axis=0), np.nanmax(dl, axis=0)
+        flat = np.flatnonzero(~(high > low))
+        if flat.size:
+            leg = int(flat[0]) + 1
+            raise GeometryError(f"leg {leg}: its readings do not move, so they give it no stroke")
+        return low, high
     if geometry.leg_length_limits is not None:
         ends = (geometry.leg_length_limits[:, None] - geometry.initial_leg_lengths) / geometry.leg_gains
         return ends.min(axis=0), ends.max(axis=0)
-    if readings is None or np.size(readings) == 0:
-        raise GeometryError("the stroke model needs each leg's stroke: give leg_length_limits or readings")
+    raise GeometryError("the stroke model needs each leg's stroke: give leg_length_limits or readings")
+
+
+@dataclass(frozen=True)
+class StrokeExcess:
+    """How far readings go beyond each leg's calibrated stroke (:func:`stroke_excess`).
+
+    Attributes
+    ----------
+    low, high : ndarray, shape (6,)
+        Each leg's stroke (readings).
+    gains : ndarray, shape (6,)
+        Each leg's gain (mm per unit of reading), to say an excess as a length.
+    margin : float
+        The share of the stroke beyond which a row is flagged.
+    rows : int
+        Rows (poses, program points, readings) checked.
+    beyond_rows, flagged_rows : int
+        Rows with a leg beyond its stroke at all, and by more than the margin.
+    beyond : ndarray of int, shape (6,)
+        Per leg, the rows whose reading is beyond its stroke.
+    below, above : ndarray, shape (6,)
+        Per leg, the largest excess below ``low`` and above ``high`` (readings; 0 where none).
+    ids : tuple of str
+        Identifiers of the first flagged rows (up to 20; when given).
+    """
+
+    low: NDArray[np.float64]
+    high: NDArray[np.float64]
+    gains: NDArray[np.float64]
+    margin: float
+    rows: int
+    beyond_rows: int
+    flagged_rows: int
+    beyond: NDArray[np.int_]
+    below: NDArray[np.float64]
+    above: NDArray[np.float64]
+    ids: tuple[str, ...] = ()
+
+    @property
+    def share(self) -> NDArray[np.float64]:
+        """Per leg, the largest excess as a share of the stroke."""
+        return np.maximum(self.below, self.above) / (self.high - self.low)
+
+    @property
+    def beyond_share(self) -> float:
+        """The share of the rows with a leg beyond its stroke (0 with no row)."""
+        return self.beyond_rows / self.rows if self.rows else 0.0
+
+    def merge(self, other: StrokeExcess) -> StrokeExcess:
+        """The figures of both sets of rows (the same model and margin), e.g. of two blocks."""
+        return StrokeExcess(
+            self.low,
+            self.high,
+            self.gains,
+            self.margin,
+            self.rows + other.rows,
+            self.beyond_rows + other.beyond_rows,
+            self.flagged_rows + other.flagged_rows,
+            self.beyond + other.beyond,
+            np.maximum(self.below, other.below),
+            np.maximum(self.above, other.above),
+            (self.ids + other.ids)[:_KEPT_IDS],
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python form (``beyond_stroke`` of the JSON outputs)."""
+        return {
+            "rows": self.rows,
+            "beyond_rows": self.beyond_rows,
+            "beyond_share": self.beyond_share,
+            "margin": self.margin,
+            "flagged_rows": self.flagged_rows,
+            "largest_share_of_stroke": float(self.share.max()),
+            "largest_mm": float(np.max(np.maximum(self.below, self.above) * self.gains)),
+            "low": self.low.tolist(),
+            "high": self.high.tolist(),
+            "beyond": self.beyond.tolist(),
+            "below": self.below.tolist(),
+            "above": self.above.tolist(),
+        }
+
+    def legs_text(self) -> str:
+        """Each leg beyond its stroke and by how much, e.g. ``leg 3 up to 0.42 above its stroke
+        [1.28, 3.26] (20% of it, 30.4 mm)``; the legs beyond the margin, else all beyond."""
+        share = self.share
+        legs = np.flatnonzero(share > self.margin)
+        if not legs.size:
+            legs = np.flatnonzero(share > 0)
+        parts = []
+        for leg in legs:
+            up = self.above[leg] >= self.below[leg]
+            side, amount = ("above", self.above[leg]) if up else ("below", self.below[leg])
+            parts.append(
+                f"leg {leg + 1} up to {amount:.3g} {side} its stroke [{self.low[leg]:.4g}, "
+                f"{self.high[leg]:.4g}] ({share[leg]:.0%} of it, {amount * self.gains[leg]:.3g} mm)"
+            )
+        return "; ".join(parts)
+
+    def warning(self, what: str = "pose(s)") -> str | None:
+        """One line when rows take a leg beyond its stroke by more than the margin, else None."""
+        if not self.flagged_rows:
+            return None
+        ids, left = "", self.flagged_rows - len(self.ids)
+        if self.ids:
+            ids = f" ({', '.join(self.ids)}{f' and {left} more' if left > 0 else ''})"
+        return (
+            f"{self.flagged_rows} of {self.rows} {what}{ids} take a leg beyond its calibrated stroke by "
+            f"more than {self.margin:.0%} of it, where the stroke model holds its curve (the leg follows "
+            f"its gain; not measured there): {self.legs_text()}"
+        )
+
+
+def stroke_excess(
+    geometry: Any,
+    readings: ArrayLike,
+    margin: float = STROKE_MARGIN,
+    ids: Sequence[Any] | None = None,
+) -> StrokeExcess | None:
+    """How far ``readings (m, 6)`` go beyond each leg's calibrated stroke on ``geometry``
+    (``None`` when its leg model has no stroke): per leg, the rows beyond and the largest
+    excess below and above (readings), the rows beyond by more than ``margin`` (a share of the
+    stroke) and, with ``ids`` (one per row), the first of them. NaN readings are not beyond.
+
+    >>> from hexcal.core import preset
+    >>> machine = preset("paper-hmt")
+    >>> stroke = with_leg_model(machine, StrokeLegs(3, np.zeros(6), np.full(6, 100.0)))
+    >>> excess = stroke_excess(stroke, [[50.0] * 6, [110.0] + [50.0] * 5], ids=["p1", "p2"])
+    >>> excess.beyond_rows, excess.flagged_rows, excess.ids, round(float(excess.share[0]), 3)
+    (1, 1, ('p2',), 0.1)
+    """
+    ranges = geometry.leg_model.stroke_range()
+    if ranges is None:
+        return None
+    if not (np.isfinite(margin) and margin >= 0):
+        raise ValueError(f"margin must be a share >= 0 of the stroke, got {margin}")
+    low, high = ranges
     dl = np.asarray(readings, dtype=float).reshape(-1, N_LEGS)
-    low, high = np.nanmin(dl, axis=0), np.nanmax(dl, axis=0)
-    flat = np.flatnonzero(~(high > low))
-    if flat.size:
-        raise GeometryError(f"leg {int(flat[0]) + 1}: its readings do not move, so they give it no stroke")
-    return low, high
+    below = np.nan_to_num(np.clip(low - dl, 0.0, None))
+    above = np.nan_to_num(np.clip(dl - high, 0.0, None))
+    out = (below > 0) | (above > 0)
+    flagged = np.any(np.maximum(below, above) > margin * (high - low), axis=1)
+    kept: tuple[str, ...] = ()
+    if ids is not None:
+        kept = tuple(str(ids[k]) for k in np.flatnonzero(flagged)[:_KEPT_IDS])
+    empty = np.zeros(N_LEGS)
+    return StrokeExcess(
+        low,
+        high,
+        np.asarray(geometry.leg_gains, dtype=float),
+        float(margin),
+        len(dl),
+        int(np.sum(out.any(axis=1))),
+        int(np.sum(flagged)),
+        out.sum(axis=0),
+        below.max(axis=0) if len(dl) else empty,
+        above.max(axis=0) if len(dl) else empty,
+        kept,
+    )
 
 
 def with_leg_model(geometry: Any, model: LegModel) -> Any:

@@ -8,7 +8,7 @@ Modules, lowest first: ``candidates`` (candidate poses and their feasibility),
 ``criteria`` (optimality criteria and their rank-6 updates), ``selection`` (greedy and
 exchange), ``planning`` (a selection with its predicted accuracy beside other strategies),
 ``pose_errors``, ``errormap`` and ``paper_claims`` (the seed paper's error maps),
-``ballbar_plan`` (ballbar circles and their selection).
+``ballbar_plan`` (ballbar circles), ``ballbar_selection`` (their selection).
 
 >>> from hexcal.design import criterion_value
 >>> criterion_value([[1.0, 0.0], [0.0, 1.0]], "A")
@@ -41,11 +41,11 @@ and rank helpers) are shared with hexcal's other layers and are not part of the 
 from hexcal._lazy import attach
 
 _NAMES = {
-    "CircleSelection": "ballbar_plan",
+    "CircleSelection": "ballbar_selection",
     "Circles": "ballbar_plan",
     "ballbar_circles": "ballbar_plan",
-    "circle_accuracy": "ballbar_plan",
-    "select_circles": "ballbar_plan",
+    "circle_accuracy": "ballbar_selection",
+    "select_circles": "ballbar_selection",
     "ANGLE_PAIRS": "errormap",
     "AngleMap": "errormap",
     "COMPARISON_DRAWS": "planning",

@@ -209,9 +209,10 @@ def analyse_poses(
     >>> analyse_poses(machine, flat).rank
     24
     """
+    from hexcal.core.noise import require_noise
     from hexcal.design.instrument_table import planned_instrument
 
-    noise = NoiseModel() if noise is None else noise
+    noise = require_noise(NoiseModel() if noise is None else noise, "every predicted accuracy")
     through_problem = planned_instrument(geometry, instrument)
     if through_problem is not None:
         return analyse_instrument(

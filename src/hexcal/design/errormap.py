@@ -33,6 +33,7 @@ from hexcal.core import (
     random_interior,
     workspace_box,
 )
+from hexcal.core.progress import task
 from hexcal.design.identifiability import as_mask
 from hexcal.design.pose_errors import mean_pose_errors, parameter_error_draws, pose_error_samples
 
@@ -280,21 +281,36 @@ def error_maps(
             raise ValueError(f"{name} must be at least {low}, got {value}")
     gen = np.random.default_rng(rng)
     sample = parameter_error_draws(draws, mask, amplitude, gen)
+    with task("error maps", len(LINE_AXES) + len(ANGLE_PAIRS) + 2) as step:
+        return _maps(geometry, box, sample, mask, method, (points, levels, grid, interior), gen, step,
+                     (amplitude, draws))  # fmt: skip
+
+
+def _maps(
+    geometry: Geometry, box: Any, sample: Any, mask: Any, method: str, sizes: tuple, gen: Any, step: Any,
+    settings: tuple,
+) -> ErrorMaps:  # fmt: skip
+    """The maps of :func:`error_maps`, one ``step`` per map."""
+    points, levels, grid, interior = sizes
+    amplitude, draws = settings
     lines: dict[str, LineMap] = {}
     for axis in LINE_AXES:
         level_axis = "x" if axis == "z" else "z"
         values, level_values, poses = line_sweep_poses(box, axis, level_axis, points, levels)
         pos, ang = pose_error_samples(geometry, poses, sample, mask, method)
         lines[axis] = LineMap(axis, level_axis, values, level_values, poses, pos, ang)
+        step()
     angles: dict[str, AngleMap] = {}
     for pair in ANGLE_PAIRS:
         values2, zs, poses = angle_grid_poses(box, pair, grid, levels)
         pos, ang = mean_pose_errors(geometry, poses, sample, mask, method)
         angles["-".join(pair)] = AngleMap(pair, values2, zs, poses, pos, ang)
+        step()
     refs = {}
     for name, poses in (("corners", box_corners(box)), ("interior", random_interior(box, interior, gen))):
         pos, ang = mean_pose_errors(geometry, poses, sample, mask, method)
         refs[name] = {"poses": poses, "position": pos, "orientation": ang}
+        step()
     return ErrorMaps(
         lines=lines,
         angles=angles,

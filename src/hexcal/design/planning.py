@@ -264,7 +264,8 @@ class PoseSelection:
     ``strategy`` is ``optimal`` (``selection`` the :class:`hexcal.design.SelectionResult`
     by ``criterion`` from the ``candidates`` spec) or ``paper`` (random feasible corners;
     ``selection`` None). ``poses`` (n, 6) in mm and rad, ``ids`` their names, ``label``
-    says what was selected, ``seconds`` the time of the selection.
+    says what was selected, ``seconds`` the time of the selection; ``noise`` the measurement
+    noise the selection and its predictions assumed, ``instrument`` what measures.
     """
 
     strategy: str
@@ -278,10 +279,14 @@ class PoseSelection:
     selection: Any | None = None
     criterion: str | None = None
     candidates: str = "corners"
+    noise: NoiseModel | None = None
+    instrument: str = "full pose in the base frame"
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python form: the keys of ``hexcal select --json`` (in order), then ``comparisons``,
-        ``label``, ``greedy_text`` and ``value_text`` (criterion values in words, or None).
+        ``label``, ``greedy_text`` and ``value_text`` (criterion values in words, or None),
+        ``noise`` (the noise assumed, as :meth:`hexcal.NoiseModel.to_dict`, or None) and
+        ``instrument``.
 
         Examples
         --------
@@ -313,6 +318,8 @@ class PoseSelection:
             "label": self.label,
             "greedy_text": describe_value(r.greedy_value, self.criterion) if r is not None else None,
             "value_text": describe_value(r.value, self.criterion) if r is not None else None,
+            "noise": None if self.noise is None else self.noise.to_dict(),
+            "instrument": self.instrument,
         }
 
 
@@ -351,8 +358,10 @@ def plan_selection(
     import time
 
     from hexcal.core.machine import leg_columns
+    from hexcal.core.noise import require_noise
     from hexcal.design.instrument_table import default_flags
 
+    require_noise(noise, "every predicted accuracy")
     flags = default_flags(geometry) if mask is None else np.asarray(mask, dtype=bool)
     per_leg = int(np.max(flags[leg_columns(geometry.leg_model)].sum(axis=1)))
     if n < per_leg:
@@ -398,4 +407,6 @@ def plan_selection(
         selection=result,
         criterion=criterion,
         candidates=spec,
+        noise=noise,
+        instrument="full pose in the base frame" if instrument is None else instrument.describe(),
     )

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hexcal.core.progress import task
 from hexcal.design.criteria import (
     GREEDY_RIDGE,
     SCORING_RIDGE,
@@ -142,22 +143,24 @@ def greedy_selection(
     scale = _mean_diagonal(b)
     full = full_rank(b, chosen)
     scorer: Scorer | None = None
-    for _ in range(n - len(chosen)):
-        ridge = (SCORING_RIDGE if full else GREEDY_RIDGE) * scale * np.eye(p)
-        crit = criterion if full or criterion in ("D", "A") else "D"
-        if crit in ("D", "A"):
-            if scorer is None or scorer.criterion != crit:
-                scorer = Scorer(b, info + ridge, crit)
-            j = _argmax(scorer.scores(), available)
-        else:
-            j, _ = best_by_eigenvalues(info + ridge, b, available, crit)
-        chosen.append(j)
-        available[j] = False
-        info = info + b[j].T @ b[j]
-        if not full and full_rank(b, chosen):
-            full, scorer = True, None  # drop the ridge: rebuild the scorer without it
-        elif scorer is not None:
-            scorer.change(j, 1.0)
+    with task("greedy selection", n - len(chosen)) as step:
+        for _ in range(n - len(chosen)):
+            step()
+            ridge = (SCORING_RIDGE if full else GREEDY_RIDGE) * scale * np.eye(p)
+            crit = criterion if full or criterion in ("D", "A") else "D"
+            if crit in ("D", "A"):
+                if scorer is None or scorer.criterion != crit:
+                    scorer = Scorer(b, info + ridge, crit)
+                j = _argmax(scorer.scores(), available)
+            else:
+                j, _ = best_by_eigenvalues(info + ridge, b, available, crit)
+            chosen.append(j)
+            available[j] = False
+            info = info + b[j].T @ b[j]
+            if not full and full_rank(b, chosen):
+                full, scorer = True, None  # drop the ridge: rebuild the scorer without it
+            elif scorer is not None:
+                scorer.change(j, 1.0)
     return np.asarray(chosen, dtype=np.intp)
 
 
@@ -216,32 +219,34 @@ def exchange_selection(
     available = np.ones(n_cand, dtype=bool)
     available[chosen] = False
     swaps = visits = unchanged = slot = 0
-    while unchanged < chosen.size and visits < max_passes * chosen.size:
-        out = chosen[slot]
-        available[out] = True
-        rest = info - b[out].T @ b[out]
-        if scorer is not None:
-            j = _argmax(scorer.scores_without(out), available)
-        else:
-            j, _ = best_by_eigenvalues(rest + ridge, b, available, crit)
-        new_info = rest + b[j].T @ b[j]
-        new_value = criterion_value(new_info + value_ridge, crit)
-        unchanged += 1
-        visits += 1
-        if j != out and new_value > value + rtol * abs(value):
-            chosen[slot], info, value = j, new_info, new_value
-            swaps += 1
-            unchanged = 0
-            if crit != criterion and full_rank(b, chosen):
-                # the set now identifies everything: continue on the exact criterion
-                crit, ridge, value_ridge = setting(True)
-                value = criterion_value(info, crit)
-                scorer = Scorer(b, info + ridge, crit, fallback) if crit in ("D", "A") else None
-            elif scorer is not None:
-                scorer.change(j, 1.0)  # add first: F stays well conditioned in between
-                scorer.change(out, -1.0)
-        available[chosen[slot]] = False
-        slot = (slot + 1) % chosen.size
+    with task("exchange", None) as step:
+        while unchanged < chosen.size and visits < max_passes * chosen.size:
+            step()
+            out = chosen[slot]
+            available[out] = True
+            rest = info - b[out].T @ b[out]
+            if scorer is not None:
+                j = _argmax(scorer.scores_without(out), available)
+            else:
+                j, _ = best_by_eigenvalues(rest + ridge, b, available, crit)
+            new_info = rest + b[j].T @ b[j]
+            new_value = criterion_value(new_info + value_ridge, crit)
+            unchanged += 1
+            visits += 1
+            if j != out and new_value > value + rtol * abs(value):
+                chosen[slot], info, value = j, new_info, new_value
+                swaps += 1
+                unchanged = 0
+                if crit != criterion and full_rank(b, chosen):
+                    # the set now identifies everything: continue on the exact criterion
+                    crit, ridge, value_ridge = setting(True)
+                    value = criterion_value(info, crit)
+                    scorer = Scorer(b, info + ridge, crit, fallback) if crit in ("D", "A") else None
+                elif scorer is not None:
+                    scorer.change(j, 1.0)  # add first: F stays well conditioned in between
+                    scorer.change(out, -1.0)
+            available[chosen[slot]] = False
+            slot = (slot + 1) % chosen.size
     return chosen, swaps, -(-visits // chosen.size)
 
 

@@ -59,7 +59,7 @@ class StrokeCoverage:
             if self.outside[leg] > 0:
                 out.append(
                     f"leg {leg + 1}: {self.outside[leg]:.0%} of the poses read outside its stroke "
-                    f"({span}): the model extrapolates there"
+                    f"({span}): the model holds its curve there"
                 )
         return out
 

@@ -8,7 +8,7 @@ verdict is :func:`hexcal.calibration.estimate`.
 Public names
 ------------
 - ``Problem``, ``IdentificationResult``: one identification (start geometry, sessions,
-  parameters varied) and its outcome.
+  parameters varied) and the outcome of one or of a batch.
 - ``ESTIMATORS``, ``DEFAULT_ESTIMATOR``, ``Estimator``, ``register``, ``get_estimator``: the
   estimators by name (ml, gls, length, paper) and how to add one.
 - ``identify_robust``, ``RobustResult``, ``pose_diagnostics``, ``PoseDiagnostics``,
@@ -18,8 +18,8 @@ Public names
 - ``gauge_freedoms``, ``Gauge``: what no data can determine (an instrument in its own frame).
 - ``cramer_rao``, ``fisher_information``, ``planned_measurements``, ``planned_session``: the
   Cramér–Rao bound and noise-free data of planned poses.
-- ``estimate_batch``, ``BatchResult``, ``BATCH_METHODS``: many simulated full-pose data sets
-  identified at once (Monte Carlo studies).
+- ``estimate_batch``, ``BATCH_METHODS``: many simulated full-pose data sets identified at once
+  (Monte Carlo studies), their result one over trials.
 
 Other names of the lazy map below (the solvers' pieces: stacks, chunks, projections,
 Jacobians, the gauge convention's algebra, the estimator functions behind the registry) are
@@ -30,7 +30,6 @@ from hexcal._lazy import attach
 
 _NAMES = {
     "BATCH_METHODS": "batched",
-    "BatchResult": "batched",
     "CONVENTION": "gauge",
     "DEFAULT_ALPHA": "outliers",
     "DEFAULT_ESTIMATOR": "registry",
@@ -40,13 +39,13 @@ _NAMES = {
     "Gauge": "gauge",
     "GroupStatistics": "noise_estimation",
     "IdentificationResult": "result",
-    "LEG_SIGMA_FLOOR": "uncertainty",
+    "LEG_SIGMA_FLOOR": "equations",
     "MIN_REDUNDANCY": "noise_estimation",
     "NOISE_FLOORS": "noise_estimation",
     "NOISE_UNITS": "noise_estimation",
     "NoiseCheck": "noise_check",
     "NoiseEstimate": "noise_estimation",
-    "POSE_VARIANCE_FLOOR": "uncertainty",
+    "POSE_VARIANCE_FLOOR": "equations",
     "Part": "problem",
     "PoseDiagnostics": "outliers",
     "PoseProjection": "likelihood",
@@ -107,7 +106,6 @@ __all__ = [
     "DEFAULT_ESTIMATOR",
     "ESTIMATORS",
     "NOISE_UNITS",
-    "BatchResult",
     "Estimator",
     "Gauge",
     "IdentificationResult",

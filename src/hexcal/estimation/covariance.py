@@ -9,8 +9,6 @@ correlations, and what the sessions' instruments became.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -18,6 +16,7 @@ from hexcal.core.linalg import gram_pinv, numerical_rank, scaled_svd
 from hexcal.core.noise import NoiseModel
 from hexcal.errors import IdentificationError
 from hexcal.estimation.gauge import CONVENTION, Gauge, complement_basis, gauge_projector
+from hexcal.estimation.levenberg import Convergence
 from hexcal.estimation.problem import Problem
 from hexcal.estimation.result import IdentificationResult, rms
 
@@ -29,7 +28,7 @@ def finish_result(
     residuals: NDArray[np.float64],
     jac_scaled: NDArray[np.float64],
     rms_before: float,
-    sol: Any,
+    sol: Convergence,
     dof: int | None = None,
     leg_rms: tuple[float, float] | None = None,
     gauge: Gauge | None = None,
@@ -79,28 +78,28 @@ def finish_result(
     widths = {b.shape[1] for b in blocks} if blocks else set()
     shaped = residuals.reshape(len(problem), -1) if len(widths) <= 1 else residuals
     return IdentificationResult(
-        geometry=problem.geometry(full),
-        start=problem.start,
         method=method,
         names=problem.names,
         values=full[mask],
+        status=int(sol.status),
+        iterations=int(sol.iterations),
+        cost=float(sol.cost),
+        rank=rank,
+        start=problem.start,
         start_values=problem.full0[mask],
+        full=np.array(full),
+        geometry=problem.geometry(full),
         stderr=stderr,
         covariance=cov,
         correlation=corr,
         singular_values=svd.singular_values,
         singular_vectors=svd.vt,
-        rank=rank,
         residuals=shaped,
         leg_rms_before=leg_rms[0],
         leg_rms_after=leg_rms[1],
         rms_before=rms_before,
         rms_after=rms(residuals),
-        cost=float(sol.cost),
-        nfev=int(sol.nfev),
-        njev=int(sol.njev or 0),
-        status=int(sol.status),
-        message=str(sol.message),
+        nfev=int(sol.evaluations),
         n_poses=len(problem),
         ids=problem.ids,
         dof=dof,

@@ -27,12 +27,20 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.geometry import Geometry
-from hexcal.core.kinematics import pose_jacobian_from_arrays
 from hexcal.core.linalg import null_space, numerical_rank, scaled_svd
-from hexcal.core.machine import check_variant, leg_parameter_jacobian, leg_residuals, pose_frames
+from hexcal.core.machine import (
+    check_variant,
+    leg_equations,
+    leg_parameter_jacobian,
+    leg_residuals,
+    leg_table,
+    pose_frames,
+    spread_legs,
+)
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import IdentificationError, UsageError
+from hexcal.estimation.equations import Observations, observation_equations
 from hexcal.estimation.sessions import as_sessions, problem_parameters, session_labels
 from hexcal.instruments.base import MeasurementModel, Session
 
@@ -148,6 +156,7 @@ class Problem:
         )
         self._frames: tuple[NDArray, NDArray] | None = None
         self._poses: NDArray[np.float64] | None = None
+        self._start_poses: list[NDArray[np.float64] | None] = [None] * len(self.parts)
 
     # -- bookkeeping -------------------------------------------------------------------
     def __len__(self) -> int:
@@ -326,6 +335,26 @@ class Problem:
         return wfun, wjac
 
     # -- errors in variables -----------------------------------------------------------
+    def start_poses(self, part: Part) -> NDArray[np.float64]:
+        """The instrument's initial estimates of a session's true poses ``(m, 6)`` (cached)."""
+        k = self.parts.index(part)
+        if self._start_poses[k] is None:
+            self._start_poses[k] = part.instrument.start_poses(self.start, self.full0[part.block], part.data)
+        return self._start_poses[k]
+
+    def observations(self, part: Part, leg_sigma: float, instrument_whitener: NDArray) -> Observations:
+        """A session's constant inputs of :mod:`hexcal.estimation.equations`."""
+        return Observations.of(
+            part.instrument,
+            self.euler,
+            self.legs,
+            part.readings,
+            part.observed,
+            part.present,
+            leg_sigma,
+            instrument_whitener,
+        )
+
     def observation_equations(
         self,
         part: Part,
@@ -335,7 +364,8 @@ class Problem:
         instrument_whitener: NDArray[np.float64],
         parameters: bool = True,
     ) -> tuple[NDArray, NDArray, NDArray | None, NDArray]:
-        """Whitened errors-in-variables equations of one session's observations at true ``poses``.
+        """Whitened errors-in-variables equations of one session's observations at true ``poses``
+        (:func:`hexcal.estimation.equations.observation_equations`).
 
         Returns
         -------
@@ -350,24 +380,14 @@ class Problem:
         lengths : ndarray, shape (m, 6)
             Leg lengths of the poses on the machine of ``full``.
         """
-        joints, setup = full[self.joints], full[part.block]
-        u, s = joints[:18].reshape(6, 3), joints[18:36].reshape(6, 3)
-        lengths, jp = pose_jacobian_from_arrays(u, s, poses, self.euler)
-        model_lengths = self.legs.lengths(full[self.leg_block], part.readings)
-        w, inst = instrument_whitener, part.instrument
-        delta = inst.residual(setup, poses, self.euler, part.observed)
-        complete = part.complete
-        if not complete:
-            delta = np.where(part.present, delta, 0.0)
-        e_inst = delta @ w.T
-        dh = inst.whitened_pose_jacobian(setup, poses, self.euler, w)
-        if not complete:
-            e_inst = np.where(part.present, e_inst, 0.0)
-            dh = np.where(part.present[..., None], dh, 0.0)
-        e = np.concatenate([(lengths - model_lengths) / leg_sigma, e_inst], axis=1)
-        b = np.concatenate([jp / leg_sigma, dh], axis=1)
-        a = self.eiv_parameter_jacobian(part, full, poses, leg_sigma, w) if parameters else None
-        return e, b, a, lengths
+        obs = self.observations(part, leg_sigma, instrument_whitener)
+        eqs = observation_equations(obs, full[self.joints], full[self.leg_block], full[part.block], poses)
+        a = (
+            self.eiv_parameter_jacobian(part, full, poses, leg_sigma, instrument_whitener)
+            if parameters
+            else None
+        )
+        return eqs.residuals(), eqs.pose_rows(instrument_whitener), a, eqs.lengths
 
     def leg_rows(
         self, part: Part, full: NDArray[np.float64], poses: NDArray[np.float64], variant: str = "length"
@@ -375,12 +395,17 @@ class Problem:
         """Jacobian of one session's leg residuals at ``poses`` with respect to the varied
         parameters, ``(m, 6, n_free)`` in solver units (instrument parameters do not enter)."""
         rot, pos = pose_frames(poses, self.euler)
-        legs = leg_parameter_jacobian(
-            full[self.joints], full[self.leg_block], self.legs, rot, pos, part.readings, variant
-        )
-        out = np.zeros((len(poses), 6, self.n_free))
+        table = leg_table(full[self.joints], full[self.leg_block], self.legs)
+        _, local = leg_equations(table, self.legs, rot, pos, part.readings, variant)
+        return self.spread_leg_rows(local)
+
+    def spread_leg_rows(self, local: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Leg rows in each leg's own columns ``(..., 6, L)`` (parameter units) as rows over the
+        varied parameters ``(..., 6, n_free)`` in solver units."""
+        legs = spread_legs(local, self.legs)
+        out = np.zeros((*legs.shape[:-1], self.n_free))
         in_machine = self.free_in(self.machine)
-        out[:, :, in_machine] = legs[:, :, self.machine_mask] * self.scale[in_machine]
+        out[..., in_machine] = legs[..., self.machine_mask] * self.scale[in_machine]
         return out
 
     def eiv_parameter_jacobian(

@@ -1,6 +1,17 @@
-"""The one result type of every estimator, :class:`IdentificationResult`, and how it is built.
+"""The one result type of every estimator, :class:`IdentificationResult`, for one identification
+and for a batch of them.
 
-Imports :mod:`hexcal.core`, :mod:`hexcal.instruments` and :mod:`hexcal.estimation.problem`.
+One identification has scalar ``status``, ``iterations`` and ``cost`` and ``values`` of shape
+``(n,)`` with its statistics (standard errors, covariance, singular values, residuals); a batch of
+``T`` identifications (a Monte Carlo study's, :func:`hexcal.estimation.batched.estimate_stack`) has
+them over a leading trial axis, and its statistics are None. ``result[k]`` is trial ``k``.
+
+What the calibration workflow attaches to a fit (the noise's source, the bound, the outlier check,
+the verdict, registrations: :func:`hexcal.calibration.estimate`) is not the estimator's: it is kept
+apart in :attr:`IdentificationResult.workflow` and read through properties of the same names,
+together with the report and file methods, until the workflow has a result of its own.
+
+Imports :mod:`hexcal.core`.
 """
 
 from __future__ import annotations
@@ -14,75 +25,80 @@ from numpy.typing import NDArray
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
+from hexcal.errors import UsageError
+
+#: Status of a converged fit (:data:`hexcal.estimation.levenberg.STATUS_CONVERGED`).
+CONVERGED = 1
+
+#: What the calibration workflow attaches (``workflow``), and the default of each.
+WORKFLOW_FIELDS: dict[str, Any] = {
+    "bound": None,
+    "outliers": (),
+    "flagged": (),
+    "verdict": None,
+    "noise_source": "given",
+    "noise_estimate": None,
+    "noise_check": None,
+    "registrations": (),
+}
 
 
 @dataclass(frozen=True, eq=False)
 class IdentificationResult:
-    """Outcome of an identification (after lmfit's ``MinimizerResult``).
+    """Outcome of an identification, or of a batch of them (after lmfit's ``MinimizerResult``).
 
     Attributes
     ----------
-    geometry : Geometry
-        The identified geometry (the start geometry with the varied parameters replaced).
-    start : Geometry
-        The geometry the identification started from (usually the nominal one).
     method : str
         Registry name of the estimator.
     names : tuple of str
         Names of the varied parameters.
-    values, start_values, stderr : ndarray, shape (n,)
-        Identified values, start values and standard errors of the varied parameters.
-    covariance, correlation : ndarray, shape (n, n)
-    singular_values : ndarray, shape (n,)
+    values, start_values : ndarray, shape (..., n)
+        Identified and start values of the varied parameters (NaN rows: failed trials).
+    status : int or ndarray of int
+        :data:`hexcal.estimation.levenberg.STATUS_CONVERGED` (1), or a failure (<= 0,
+        :data:`hexcal.estimation.levenberg.STATUS_MESSAGES`).
+    iterations : int or ndarray of int
+        Levenberg–Marquardt iterations (the slowest leg's for ``paper``/``length``).
+    cost : float or ndarray
+        ``0.5 * sum(residuals**2)`` at the solution (the method's residuals; NaN if failed).
+    rank : int or ndarray of int
+        Numerical rank of the Jacobian (beyond the gauges).
+    start : Geometry
+        The geometry the identification started from (usually the nominal one).
+    full : ndarray, shape (..., N), optional
+        Every parameter's value (the varied ones identified, the others as started).
+    geometry : Geometry, optional
+        The identified geometry (one identification).
+    stderr : ndarray, shape (n,), optional
+        Standard errors of the varied parameters.
+    covariance, correlation : ndarray, shape (n, n), optional
+    singular_values : ndarray, shape (n,), optional
         Singular values of the column-normalised Jacobian at the solution, descending.
-    singular_vectors : ndarray, shape (n, n)
+    singular_vectors : ndarray, shape (n, n), optional
         Row ``k`` is the (normalised-parameter) combination of ``singular_values[k]``.
-    rank : int
-    residuals : ndarray, shape (m, k)
+    residuals : ndarray, shape (m, k), optional
         Residuals at the solution (units of the method; whitened for ``ml`` and ``gls``).
     leg_rms_before, leg_rms_after : float
         RMS of the leg length residual ``|v| - (l0 + g dl)`` at the start and at the
         solution, mm (comparable across methods).
     rms_before, rms_after : float
         RMS of the method's own residual.
-    cost : float
-        ``0.5 * sum(residuals**2)`` at the solution.
-    nfev, njev : int
-        Function and Jacobian evaluations (``njev`` counts the LM iterations).
-    status : int
-    message : str
+    nfev : int
+        Function evaluations.
     n_poses : int
     ids : tuple of str
         Ids of the poses used.
     dof : int
         Degrees of freedom: independent residuals less the varied parameters.
-    bound : ndarray, shape (n,), optional
-        Cramér–Rao σ of each parameter under ``noise``.
-    noise : NoiseModel, optional
-        The noise model used by the estimator or the bound.
-    outliers : tuple of str
-        Ids of the poses left out as outliers (robust fitting).
-    flagged : tuple of str
-        Ids of poses whose residuals are implausible under the noise model.
     model : str
         Name of the measurement model.
-    verdict : Verdict, optional
-        ``pass`` | ``warn`` | ``fail`` with its reasons (:mod:`hexcal.calibration.verdict`).
-    noise_source : str
-        ``"estimated"`` (learned from the data, :mod:`hexcal.estimation.noise_estimation`)
-        or ``"given"``.
-    noise_estimate : NoiseEstimate, optional
-        The variance components (σ, standard errors, redundancies) when estimated.
-    noise_check : NoiseCheck, optional
-        The given noise tested against the data, per group.
     sessions : tuple of str
         The sessions' labels (one for a single data set).
     session_sizes : tuple of int
         Observations of each session.
     instruments : tuple of MeasurementModel
         Each session's instrument with its identified values (a calibrated setup).
-    registrations : tuple
-        How each session's unknown frame was registered (None where it was not).
     gauges : tuple of str
         The gauge freedoms removed (``base translation x`` ...), empty when none.
     convention : str
@@ -96,46 +112,42 @@ class IdentificationResult:
     leg_residuals_before, leg_residuals_after : ndarray, shape (m, 6), optional
         Leg residuals (mm) of every observation at the start and at the solution: at the
         measured poses where the instruments give them, else at the estimated true poses.
+    workflow : dict
+        What the calibration workflow attached (:data:`WORKFLOW_FIELDS`: ``bound``, the
+        Cramér–Rao σ of each parameter; ``outliers`` left out and ``flagged`` observations;
+        the ``verdict``; the noise's ``noise_source``, ``noise_estimate`` or ``noise_check``;
+        each session's ``registrations``), read through properties of the same names.
     """
 
-    geometry: Geometry
-    start: Geometry
     method: str
     names: tuple[str, ...]
     values: NDArray[np.float64]
-    start_values: NDArray[np.float64]
-    stderr: NDArray[np.float64]
-    covariance: NDArray[np.float64]
-    correlation: NDArray[np.float64]
-    singular_values: NDArray[np.float64]
-    singular_vectors: NDArray[np.float64]
-    rank: int
-    residuals: NDArray[np.float64]
-    leg_rms_before: float
-    leg_rms_after: float
-    rms_before: float
-    rms_after: float
-    cost: float
-    nfev: int
-    njev: int
-    status: int
-    message: str
-    n_poses: int
+    status: Any
+    iterations: Any
+    cost: Any
+    rank: Any
+    start: Geometry | None = None
+    start_values: NDArray[np.float64] | None = None
+    full: NDArray[np.float64] | None = None
+    geometry: Geometry | None = None
+    stderr: NDArray[np.float64] | None = None
+    covariance: NDArray[np.float64] | None = None
+    correlation: NDArray[np.float64] | None = None
+    singular_values: NDArray[np.float64] | None = None
+    singular_vectors: NDArray[np.float64] | None = None
+    residuals: NDArray[np.float64] | None = None
+    leg_rms_before: float = float("nan")
+    leg_rms_after: float = float("nan")
+    rms_before: float = float("nan")
+    rms_after: float = float("nan")
+    nfev: Any = 0
+    n_poses: int = 0
     ids: tuple[str, ...] = field(default=())
     dof: int = 0
-    bound: NDArray[np.float64] | None = None
-    noise: NoiseModel | None = None
-    outliers: tuple[str, ...] = ()
-    flagged: tuple[str, ...] = ()
     model: str = "pose"
-    verdict: Any = None
-    noise_source: str = "given"
-    noise_estimate: Any = None
-    noise_check: Any = None
     sessions: tuple[str, ...] = ()
     session_sizes: tuple[int, ...] = ()
     instruments: tuple[Any, ...] = ()
-    registrations: tuple[Any, ...] = ()
     gauges: tuple[str, ...] = ()
     convention: str = ""
     poses: NDArray[np.float64] | None = None
@@ -143,7 +155,137 @@ class IdentificationResult:
     leg_residuals_before: NDArray[np.float64] | None = None
     leg_residuals_after: NDArray[np.float64] | None = None
     gauge_directions: NDArray[np.float64] | None = None
+    workflow: dict[str, Any] = field(default_factory=dict)
 
+    # -- one identification or a batch ---------------------------------------------------
+    @property
+    def batched(self) -> bool:
+        """Whether this is a batch of identifications (a leading trial axis)."""
+        return np.ndim(self.values) > 1
+
+    @property
+    def trials(self) -> int:
+        """Identifications held (1 for one identification)."""
+        return int(np.shape(self.values)[0]) if self.batched else 1
+
+    def __getitem__(self, trial: int) -> IdentificationResult:
+        """Trial ``trial`` of a batch, as one identification."""
+        if not self.batched:
+            raise UsageError("one identification has no trials to index")
+        return IdentificationResult(
+            self.method,
+            self.names,
+            self.values[trial],
+            int(self.status[trial]),
+            int(self.iterations[trial]),
+            float(self.cost[trial]),
+            int(self.rank[trial]),
+            self.start,
+            None if self.start_values is None else self.start_values[trial],
+            None if self.full is None else self.full[trial],
+            model=self.model,
+            sessions=self.sessions,
+            noises=self.noises,
+        )
+
+    @property
+    def converged(self) -> Any:
+        """Whether each identification converged (its values are the identified ones)."""
+        return np.asarray(self.status) == CONVERGED if self.batched else self.status == CONVERGED
+
+    @property
+    def message(self) -> Any:
+        """What the solver says of each identification (one string, or one per trial)."""
+        from hexcal.estimation.levenberg import STATUS_MESSAGES
+
+        if self.batched:
+            return tuple(STATUS_MESSAGES[int(s)] for s in self.status)
+        return STATUS_MESSAGES.get(int(self.status), str(self.status))
+
+    @property
+    def njev(self) -> Any:
+        """Jacobian evaluations: the iterations."""
+        return self.iterations
+
+    @property
+    def noise(self) -> NoiseModel | None:
+        """The first session's noise model (None when none was used)."""
+        return self.noises[0] if self.noises else None
+
+    @property
+    def reduced_chi2(self) -> float:
+        """Residual variance per degree of freedom (about 1 for whitened residuals under a
+        correct noise model)."""
+        if self.residuals is None:
+            return float("nan")
+        return float(np.sum(self.residuals**2) / self.dof) if self.dof > 0 else float("nan")
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """Identified values by name."""
+        return dict(zip(self.names, np.asarray(self.values).tolist(), strict=True))
+
+    @property
+    def standard_errors(self) -> dict[str, float]:
+        """Standard errors by name."""
+        stderr = np.full(len(self.names), np.nan) if self.stderr is None else self.stderr
+        return dict(zip(self.names, stderr.tolist(), strict=True))
+
+    def replace(self, **changes: Any) -> IdentificationResult:
+        """Copy with some fields (or workflow attachments, :data:`WORKFLOW_FIELDS`) changed."""
+        noise = changes.pop("noise", None)
+        if noise is not None and "noises" not in changes:
+            changes["noises"] = (noise,) * max(len(self.sessions), 1)
+        attached = {k: changes.pop(k) for k in list(changes) if k in WORKFLOW_FIELDS}
+        if attached:
+            changes["workflow"] = {**self.workflow, **attached}
+        return dataclasses.replace(self, **changes)
+
+    # -- what the calibration workflow attached (until it has a result of its own) -----------
+    def _attached(self, name: str) -> Any:
+        return self.workflow.get(name, WORKFLOW_FIELDS[name])
+
+    @property
+    def bound(self) -> NDArray[np.float64] | None:
+        """Cramér–Rao σ of each parameter under ``noise`` (attached by the workflow)."""
+        return self._attached("bound")
+
+    @property
+    def outliers(self) -> tuple[str, ...]:
+        """Ids of the poses left out as outliers (robust fitting)."""
+        return self._attached("outliers")
+
+    @property
+    def flagged(self) -> tuple[str, ...]:
+        """Ids of poses whose residuals are implausible under the noise model."""
+        return self._attached("flagged")
+
+    @property
+    def verdict(self) -> Any:
+        """``pass`` | ``warn`` | ``fail`` with its reasons (:mod:`hexcal.calibration.verdict`)."""
+        return self._attached("verdict")
+
+    @property
+    def noise_source(self) -> str:
+        """``"estimated"`` (learned from the data) or ``"given"``."""
+        return self._attached("noise_source")
+
+    @property
+    def noise_estimate(self) -> Any:
+        """The variance components (σ, standard errors, redundancies) when estimated."""
+        return self._attached("noise_estimate")
+
+    @property
+    def noise_check(self) -> Any:
+        """The given noise tested against the data, per group."""
+        return self._attached("noise_check")
+
+    @property
+    def registrations(self) -> tuple[Any, ...]:
+        """How each session's unknown frame was registered (None where it was not)."""
+        return self._attached("registrations")
+
+    # -- reports and files (the workflow's, until it has a result of its own) ---------------
     def calibrated_instruments(self) -> tuple[Any, ...]:
         """Each session's instrument at its identified values, with the ``calibration`` mapping
         of a calibrated setup: method, observations, standard errors by name, the gauge
@@ -171,26 +313,6 @@ class IdentificationResult:
     def failed(self) -> bool:
         """The verdict is ``fail``: write no calibrated geometry (unless forced)."""
         return self.verdict is not None and self.verdict.failed
-
-    @property
-    def reduced_chi2(self) -> float:
-        """Residual variance per degree of freedom (about 1 for whitened residuals under a
-        correct noise model)."""
-        return float(np.sum(self.residuals**2) / self.dof) if self.dof > 0 else float("nan")
-
-    @property
-    def parameters(self) -> dict[str, float]:
-        """Identified values by name."""
-        return dict(zip(self.names, self.values.tolist(), strict=True))
-
-    @property
-    def standard_errors(self) -> dict[str, float]:
-        """Standard errors by name."""
-        return dict(zip(self.names, self.stderr.tolist(), strict=True))
-
-    def replace(self, **changes: Any) -> IdentificationResult:
-        """Copy with some fields changed."""
-        return dataclasses.replace(self, **changes)
 
     def calibration_metadata(self) -> dict[str, Any]:
         """The ``calibration:`` mapping written into a calibrated geometry file."""

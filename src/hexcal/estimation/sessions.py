@@ -12,7 +12,7 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.geometry import Geometry
 from hexcal.core.parameters import DEFAULT_FIT, ParameterSet
@@ -80,6 +80,22 @@ def _prefixed(params: ParameterSet, prefix: str) -> ParameterSet:
     return ParameterSet(names, params.values, params.vary, params.scales, groups, params.blocks)
 
 
+def _check_model_terms(start: Geometry, params: ParameterSet, groups: Sequence[str], vary: NDArray) -> None:
+    """Refuse a leg model asked for (its group in ``fit``) whose terms are all held and all 0:
+    the model identified and written would be the linear one under the other model's name."""
+    model = start.leg_model
+    if not model.terms or model.name not in groups or model.name not in params.groups:
+        return
+    names = params.groups[model.name]
+    index = [params.index(n) for n in names]
+    if not vary[index].any() and not np.any(np.asarray(params.values)[index]):
+        raise UsageError(
+            f"--fix holds every term of the {model.name} leg model at 0, so the model identified would be "
+            f"the linear one under the {model.name} name; fit its terms (leave --fix {model.name} out), "
+            "or use --leg-model linear"
+        )
+
+
 def problem_parameters(
     start: Geometry,
     sessions: Sequence[Session],
@@ -131,6 +147,7 @@ def problem_parameters(
         instrument_groups = [g for _, own in blocks for g in own.groups if "." not in g]
         fit = list(dict.fromkeys([*groups, *instrument_groups]))
         vary = np.array(params.select(fit, fix).vary) & instrument_held
+        _check_model_terms(start, params, groups, vary)
     if not vary.any():
         raise UsageError("no parameter left to identify")
     return params.with_vary(vary)

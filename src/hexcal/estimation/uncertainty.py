@@ -35,18 +35,12 @@ from hexcal.core.kinematics import inverse_kinematics, leg_readings, pose_jacobi
 from hexcal.core.linalg import floored_whitener, gram_pinv, gram_pinv_diagonal, scaled_svd, whitening
 from hexcal.core.machine import check_variant
 from hexcal.core.noise import NoiseModel
+from hexcal.estimation.equations import LEG_SIGMA_FLOOR, POSE_VARIANCE_FLOOR
 from hexcal.estimation.gauge import gauge_freedoms, gauge_projector
 from hexcal.estimation.problem import Problem
 from hexcal.instruments.base import MeasurementModel, Session
 from hexcal.instruments.data import Measurements
 from hexcal.instruments.registry import full_pose
-
-#: Smallest leg sensor σ used in the likelihood (mm): a zero σ makes the legs exact
-#: constraints, which this floor approximates without dividing by zero.
-LEG_SIGMA_FLOOR = 1e-7
-
-#: Smallest pose error variance used in the likelihood (mm², rad²), for the same reason.
-POSE_VARIANCE_FLOOR = 1e-18
 
 
 def planned_measurements(geometry: Geometry, poses: ArrayLike) -> Measurements:

@@ -16,6 +16,8 @@ Public names
   "Setup file"): instrument frame or auto, targets or tool, fixed quantities.
 - ``Measurements``, ``TargetMeasurements``, ``Session``: the data an instrument records and
   a session (data and instrument; one machine, several sessions per calibration).
+- ``Covariates``, ``COVARIATE_COLUMNS``: what the data carry beside the readings, per row
+  (time, the legs' temperatures, the payload; docs/formats.md "Covariates").
 - ``Registration``, ``register_targets``, ``register_pose_instrument``: an auto
   instrument frame registered from the data before the fit.
 
@@ -29,6 +31,8 @@ _NAMES = {
     "BallbarMeasurements": "ballbar_setup",
     "BallbarModel": "ballbar",
     "BallbarSetup": "ballbar_setup",
+    "COVARIATE_COLUMNS": "covariates",
+    "Covariates": "covariates",
     "ANGLE_SCALE": "setup",
     "FIXABLE": "setup",
     "FRAME_NAMES": "setup",
@@ -63,6 +67,7 @@ _NAMES = {
 }
 
 __all__ = [
+    "COVARIATE_COLUMNS",
     "FIXABLE",
     "MODELS",
     "SETUP_KEYS",
@@ -70,6 +75,7 @@ __all__ = [
     "BallbarMeasurements",
     "BallbarModel",
     "BallbarSetup",
+    "Covariates",
     "FramedModel",
     "FullPoseModel",
     "MeasurementModel",

@@ -117,6 +117,21 @@ class BallbarModel(MeasurementModel):
         angles = np.einsum("...i,...ik->...k", n, cross_axes(axes, rb))
         return np.concatenate([n, angles], axis=-1)[..., None, :]
 
+    def residual_and_pose_jacobian(
+        self,
+        setup: NDArray[np.float64],
+        poses: NDArray[np.float64],
+        euler: str,
+        observed: NDArray[np.float64],
+        whitener: NDArray[np.float64],
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        _, rb, v, dist = self._vector(setup, poses, euler)  # once for both
+        n = v / dist
+        axes = euler_axes(poses[..., 3:], euler)
+        angles = np.einsum("...i,...ik->...k", n, cross_axes(axes, rb))
+        jac = np.concatenate([n, angles], axis=-1)[..., None, :]
+        return dist - setup[..., None, 6:7] - observed, np.matmul(whitener, jac)
+
     def setup_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:

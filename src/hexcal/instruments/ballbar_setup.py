@@ -31,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import InputError, UsageError
+from hexcal.instruments.covariates import NO_COVARIATES, Covariates, check_rows
 from hexcal.instruments.known_noise import Device, declared_noise, device_for, noise_mapping
 
 #: Setup quantities a ballbar setup's ``fixed`` may name.
@@ -217,11 +218,14 @@ class BallbarSetup:
 
 @dataclass(frozen=True, eq=False)
 class BallbarMeasurements:
-    """Leg readings ``(m, 6)`` and the bar's reading ``d`` ``(m,)`` (mm) at each observation."""
+    """Leg readings ``(m, 6)`` and the bar's reading ``d`` ``(m,)`` (mm) at each observation,
+    their ids and covariates (:class:`~hexcal.instruments.covariates.Covariates`, none present by
+    default)."""
 
     readings: NDArray[np.float64]
     d: NDArray[np.float64]
     ids: tuple[str, ...] = field(default=())
+    covariates: Covariates = field(default=NO_COVARIATES)
 
     def __post_init__(self) -> None:
         readings = np.array(self.readings, dtype=float)
@@ -242,13 +246,15 @@ class BallbarMeasurements:
         object.__setattr__(self, "readings", readings)
         object.__setattr__(self, "d", d)
         object.__setattr__(self, "ids", ids)
+        object.__setattr__(self, "covariates", check_rows(self.covariates, len(readings), "observations"))
 
     def __len__(self) -> int:
         return len(self.readings)
 
     def subset(self, index: ArrayLike) -> BallbarMeasurements:
         idx = np.arange(len(self))[np.asarray(index)]
-        return BallbarMeasurements(self.readings[idx], self.d[idx], tuple(self.ids[i] for i in idx))
+        ids = tuple(self.ids[i] for i in idx)
+        return BallbarMeasurements(self.readings[idx], self.d[idx], ids, self.covariates.subset(idx))
 
     def replace(self, **changes: Any) -> BallbarMeasurements:
         return dataclasses.replace(self, **changes)

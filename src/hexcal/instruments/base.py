@@ -32,6 +32,7 @@ from hexcal.core.geometry import Geometry
 from hexcal.core.noise import NoiseModel
 from hexcal.core.parameters import ParameterSet
 from hexcal.errors import UsageError
+from hexcal.instruments.covariates import NO_COVARIATES, Covariates
 from hexcal.instruments.known_noise import Device, device_for
 
 #: The noise groups an instrument's covariance may depend on (fields of :class:`NoiseModel`).
@@ -83,6 +84,12 @@ class MeasurementModel(ABC):
         """Observation labels."""
         return tuple(data.ids)
 
+    def covariates(self, data: Any) -> Covariates:
+        """The observations' covariates (time, leg temperatures, payload): ``data.covariates``,
+        none present for data that carry none."""
+        found = getattr(data, "covariates", None)
+        return NO_COVARIATES if found is None else found
+
     def subset(self, data: Any, index: NDArray[np.intp]) -> Any:
         """The observations at ``index``."""
         return data.subset(index)
@@ -130,6 +137,20 @@ class MeasurementModel(ABC):
     ) -> NDArray[np.float64]:
         """``W d residual / d pose`` for a whitening matrix ``W`` (size, size): ``(m, size, 6)``."""
         return np.matmul(whitener, self.pose_jacobian(setup, poses, euler))
+
+    def residual_and_pose_jacobian(
+        self,
+        setup: NDArray[np.float64],
+        poses: NDArray[np.float64],
+        euler: str,
+        observed: NDArray[np.float64],
+        whitener: NDArray[np.float64],
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """:meth:`residual` and :meth:`whitened_pose_jacobian` at once (what the pose solve of the
+        likelihood asks at every step); a model overrides it to share the work of the two."""
+        return self.residual(setup, poses, euler, observed), self.whitened_pose_jacobian(
+            setup, poses, euler, whitener
+        )
 
     def setup_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
@@ -247,14 +268,14 @@ class MeasurementModel(ABC):
         its quantities known (the least-squares pose of each observation, as validation finds
         it): the noise through the pseudo-inverse of the pose Jacobian, ``H⁺ Σ H⁺ᵀ`` (``H⁻¹ Σ
         H⁻ᵀ`` for six values); NaN where the values cannot give the pose (rank below 6)."""
-        jac = self.pose_jacobian(setup, poses, euler)
-        if jac.shape[1] == 6:
+        jac = self.pose_jacobian(setup, poses, euler)  # batch-first: (..., m, size, 6)
+        if jac.shape[-2] == 6:
             inv = np.linalg.inv(jac)
         else:
             inv = np.linalg.pinv(jac)
             sv = np.linalg.svd(jac, compute_uv=False)
-            inv[~(sv[:, -1] > 1e-9 * sv[:, 0]) if sv.shape[1] == 6 else slice(None)] = np.nan
-        return inv @ self.covariance(noise) @ inv.transpose(0, 2, 1)
+            inv[~(sv[..., -1] > 1e-9 * sv[..., 0]) if sv.shape[-1] == 6 else ...] = np.nan
+        return inv @ self.covariance(noise) @ np.swapaxes(inv, -1, -2)
 
     # -- simulation and diagnoses ---------------------------------------------------------
     def simulate(

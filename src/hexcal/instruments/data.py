@@ -2,7 +2,9 @@
 
 :class:`Measurements` holds measured poses (a full pose in the base frame, or a tool's pose
 in an instrument frame) and the leg readings at each; :class:`TargetMeasurements` the
-positions of targets on the platform in an instrument frame (a target not seen is NaN).
+positions of targets on the platform in an instrument frame (a target not seen is NaN). Each
+carries the :class:`~hexcal.instruments.covariates.Covariates` of its rows (time, the legs'
+temperatures, the payload; none present by default), kept by every copy and subset.
 Imports :mod:`hexcal.core` only.
 """
 
@@ -17,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hexcal.core.conventions import as_poses
 from hexcal.errors import UsageError
+from hexcal.instruments.covariates import NO_COVARIATES, Covariates, check_rows
 
 
 @dataclass(frozen=True, eq=False)
@@ -31,11 +34,14 @@ class Measurements:
         Leg readings ``dl_i``, mm.
     ids : sequence of str, optional
         Pose labels; default ``"1" ... "m"`` (the row numbers).
+    covariates : Covariates, optional
+        The rows' time, leg temperatures and payload; default none present.
     """
 
     poses: NDArray[np.float64]
     readings: NDArray[np.float64]
     ids: tuple[str, ...] = field(default=())
+    covariates: Covariates = field(default=NO_COVARIATES)
 
     def __post_init__(self) -> None:
         poses = np.array(as_poses(self.poses, "measured poses"), dtype=float)
@@ -58,6 +64,7 @@ class Measurements:
         object.__setattr__(self, "poses", poses)
         object.__setattr__(self, "readings", readings)
         object.__setattr__(self, "ids", ids)
+        object.__setattr__(self, "covariates", check_rows(self.covariates, len(poses)))
 
     def __len__(self) -> int:
         return int(self.poses.shape[0])
@@ -65,7 +72,9 @@ class Measurements:
     def subset(self, index: ArrayLike) -> Measurements:
         """The measurements at ``index`` (an integer or boolean index)."""
         idx = np.arange(len(self))[np.asarray(index)]
-        return Measurements(self.poses[idx], self.readings[idx], tuple(self.ids[i] for i in idx))
+        return Measurements(
+            self.poses[idx], self.readings[idx], tuple(self.ids[i] for i in idx), self.covariates.subset(idx)
+        )
 
     def replace(self, **changes: Any) -> Measurements:
         """Copy with some fields changed (validated again)."""
@@ -86,12 +95,15 @@ class TargetMeasurements:
         Target names ``t1 ...`` (``n``).
     ids : sequence of str, optional
         Pose labels; default the row numbers.
+    covariates : Covariates, optional
+        The rows' time, leg temperatures and payload; default none present.
     """
 
     readings: NDArray[np.float64]
     targets: NDArray[np.float64]
     names: tuple[str, ...]
     ids: tuple[str, ...] = field(default=())
+    covariates: Covariates = field(default=NO_COVARIATES)
 
     def __post_init__(self) -> None:
         readings = np.array(self.readings, dtype=float)
@@ -123,6 +135,7 @@ class TargetMeasurements:
         object.__setattr__(self, "targets", targets)
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "ids", ids)
+        object.__setattr__(self, "covariates", check_rows(self.covariates, m))
 
     def __len__(self) -> int:
         return int(self.readings.shape[0])
@@ -136,7 +149,11 @@ class TargetMeasurements:
         """The poses at ``index`` (integer or boolean)."""
         idx = np.arange(len(self))[np.asarray(index)]
         return TargetMeasurements(
-            self.readings[idx], self.targets[idx], self.names, tuple(self.ids[i] for i in idx)
+            self.readings[idx],
+            self.targets[idx],
+            self.names,
+            tuple(self.ids[i] for i in idx),
+            self.covariates.subset(idx),
         )
 
     def replace(self, **changes: Any) -> TargetMeasurements:

@@ -32,9 +32,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hexcal.core.conventions import euler_axes, rotation_matrices
+from hexcal.core.conventions import euler_axes, rotation_and_axes, rotation_matrices
 from hexcal.core.geometry import Geometry
-from hexcal.core.machine import pose_frames
 from hexcal.core.noise import NoiseModel
 from hexcal.errors import UsageError
 from hexcal.instruments.data import Measurements
@@ -103,13 +102,18 @@ class ToolModel(FramedModel):
     # The functions below are batch-first: ``setup`` (..., 12) and ``poses`` (..., m, 6) with
     # broadcasting batch shapes (one campaign: ``setup`` (12,), ``poses`` (m, 6)).
     def _frames(self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str) -> tuple:
-        rot_f, t_f = frame_transform(setup[..., :6], euler)
-        rot_t, t_t = frame_transform(setup[..., 6:12], euler)
-        rot_p, pos = pose_frames(poses, euler)
+        """The frame, the tool, the platform's and the tool's predicted frames and the platform's
+        Euler axes (each rotation computed once: this is the pose solve's inner loop)."""
+        setup = np.asarray(setup, dtype=float)
+        both = rotation_matrices(np.stack([setup[..., 3:6], setup[..., 9:12]], axis=-2), euler)
+        rot_f, rot_t = both[..., 0, :, :], both[..., 1, :, :]
+        t_f, t_t = setup[..., :3].copy(), setup[..., 6:9].copy()
+        poses = np.asarray(poses, dtype=float)
+        rot_p, axes = rotation_and_axes(poses[..., 3:], euler)
         rt = np.einsum("...mjk,...k->...mj", rot_p, t_t)
-        point = pos + rt  # tool origin, base frame
-        rot = np.einsum("...ab,...mbc,...cd->...mad", rot_f, rot_p, rot_t)
-        return rot_f, t_f, rot_t, t_t, rot_p, rt, point, rot
+        point = poses[..., :3] + rt  # tool origin, base frame
+        rot = rot_f[..., None, :, :] @ rot_p @ rot_t[..., None, :, :]
+        return rot_f, t_f, rot_t, t_t, rot_p, rt, point, rot, axes
 
     @staticmethod
     def _to_instrument(rot_f: NDArray, t_f: NDArray, point: NDArray) -> NDArray[np.float64]:
@@ -121,7 +125,7 @@ class ToolModel(FramedModel):
     ) -> NDArray[np.float64]:
         if self.identity:
             return np.array(poses)
-        rot_f, t_f, *_, point, rot = self._frames(setup, poses, euler)
+        rot_f, t_f, *_, point, rot, _ = self._frames(setup, poses, euler)
         return np.concatenate([self._to_instrument(rot_f, t_f, point), matrix_to_euler(rot, euler)], axis=-1)
 
     def residual(
@@ -137,13 +141,31 @@ class ToolModel(FramedModel):
             if self.orientation == "euler":
                 diff[..., 3:] = _wrap(diff[..., 3:])
                 return diff
-        rot_f, t_f, *_, point, rot = self._frames(setup, poses, euler)
+        return self._residual(self._frames(setup, poses, euler), euler, observed)
+
+    def residual_and_pose_jacobian(
+        self,
+        setup: NDArray[np.float64],
+        poses: NDArray[np.float64],
+        euler: str,
+        observed: NDArray[np.float64],
+        whitener: NDArray[np.float64],
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        if self.identity:
+            return self.residual(setup, poses, euler, observed), self.whitened_pose_jacobian(
+                setup, poses, euler, whitener
+            )
+        frames = self._frames(setup, poses, euler)  # once for both
+        jac = np.matmul(whitener, self._pose_jacobian(frames, poses, euler))
+        return self._residual(frames, euler, observed), jac
+
+    def _residual(self, frames: tuple, euler: str, observed: NDArray[np.float64]) -> NDArray[np.float64]:
+        rot_f, t_f, *_, point, rot, _ = frames
         position = self._to_instrument(rot_f, t_f, point) - observed[..., :3]
         if self.orientation == "euler":
             return np.concatenate([position, _wrap(matrix_to_euler(rot, euler) - observed[..., 3:])], axis=-1)
-        rot_obs = rotation_matrices(observed[..., 3:], euler)
+        rot_obs, w_obs = rotation_and_axes(observed[..., 3:], euler)
         omega = rotation_vectors(rot @ np.swapaxes(rot_obs, -1, -2))
-        w_obs = euler_axes(observed[..., 3:], euler)
         angular = np.linalg.solve(np.swapaxes(w_obs, -1, -2), omega[..., None])[..., 0]
         return np.concatenate([position, angular], axis=-1)
 
@@ -158,8 +180,10 @@ class ToolModel(FramedModel):
     ) -> NDArray[np.float64]:
         if self.identity:
             return np.broadcast_to(np.eye(6), (*np.shape(poses)[:-1], 6, 6))
-        rot_f, _, _, _, _, rt, _, rot = self._frames(setup, poses, euler)
-        axes = euler_axes(poses[..., 3:], euler)
+        return self._pose_jacobian(self._frames(setup, poses, euler), poses, euler)
+
+    def _pose_jacobian(self, frames: tuple, poses: NDArray[np.float64], euler: str) -> NDArray[np.float64]:
+        rot_f, _, _, _, _, rt, _, rot, axes = frames
         rf = rot_f[..., None, :, :]
         jac = np.zeros((*rot.shape[:-2], 6, 6))
         jac[..., :3, :3] = rf
@@ -181,7 +205,7 @@ class ToolModel(FramedModel):
     def setup_jacobian(
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], euler: str
     ) -> NDArray[np.float64]:
-        rot_f, t_f, _, _, rot_p, _, point, rot = self._frames(setup, poses, euler)
+        rot_f, t_f, _, _, rot_p, _, point, rot, _ = self._frames(setup, poses, euler)
         lead = rot.shape[:-2]
         axes_f = euler_axes(setup[..., 3:6], euler)[..., None, :, :]  # (..., 1, 3, 3)
         axes_t = euler_axes(setup[..., 9:12], euler)[..., None, :, :]
@@ -257,7 +281,7 @@ class ToolModel(FramedModel):
         self, setup: NDArray[np.float64], poses: NDArray[np.float64], noise: NoiseModel, euler: str
     ) -> NDArray[np.float64]:
         if self.identity:
-            return np.broadcast_to(noise.pose_cov(), (len(poses), 6, 6))
+            return np.broadcast_to(noise.pose_cov(), (*np.shape(poses)[:-1], 6, 6))
         return super().platform_covariance(setup, poses, noise, euler)
 
     # -- simulation and diagnoses -------------------------------------------------------

@@ -15,7 +15,9 @@ plain rows converted whole by numpy), :mod:`~hexcal.io.measurement_files` (the
 one reader of every table, whole or in blocks: delimiter, unit row, limits; pose, measurement
 and leg files), :mod:`~hexcal.io.table_writing` (writing tables), :mod:`~hexcal.io.target_files`
 (instrument exports, column maps from a command line, covariance matrices),
-:mod:`~hexcal.io.sessions` (the readers and writers of each instrument's data),
+:mod:`~hexcal.io.covariate_columns` (the covariate columns of any table: time, leg
+temperatures, payload), :mod:`~hexcal.io.sessions` (the readers and writers of each
+instrument's data),
 :mod:`~hexcal.io.gcode` (G-code programs, read and written in blocks).
 Imports every layer below it; only ``io`` and ``cli`` touch files.
 
@@ -119,6 +121,7 @@ _NAMES = {
     "save_geometry": "geometry_file",
     "save_setup": "setup_file",
     "save_setup_dict": "sessions",
+    "table_covariates": "covariate_columns",
     "table_legs": "measurement_files",
     "table_poses": "measurement_files",
     "too_many_rows": "inputs",

@@ -375,7 +375,9 @@ def _comp_lines(geometry: Geometry, n: int, table: object) -> list[str]:
         f"# stroke leg model of degree {int(model.settings()[0])}: the strut's length is not linear in its",
         "# reading. LinuxCNC adds the trim of this table (strut length mm -> trim mm, interpolated,",
         f"# {len(table.nominal)} entries, within {table.max_error:.2g} mm) to the joint position; keep the",  # type: ignore[attr-defined]
-        "# file beside the machine's INI file (LinuxCNC opens it from the configuration's folder)",
+        "# file beside the machine's INI file (LinuxCNC opens it from the configuration's folder).",
+        "# The table spans the calibrated stroke; beyond it LinuxCNC holds the end trims, which is the",
+        "# model's own continuation (its curve held, the strut following its gain)",
         f"COMP_FILE = {COMP_FILES[n]}",
         "COMP_FILE_TYPE = 1",
         "# the stroke (readings) and degree the table was made from, for `hexcal import linuxcnc`",

@@ -6,17 +6,23 @@ corrected by its gain and ``HOME_OFFSET = l0`` (:mod:`hexcal.io.linuxcnc`), a mo
 reading (:class:`hexcal.core.stroke_legs.StrokeLegs`) is then ``l(dl) = l0 + g dl + c(dl)``
 long, not ``M``. LinuxCNC's joint compensation adds a trim to the commanded position before
 it goes to the motor: ``motor = L + trim(L)``, the trim interpolated linearly between the
-table's entries and held at the end values beyond them (``compute_screw_comp`` in LinuxCNC's
-``src/emc/motion/control.c``). The trim that brings the leg to ``L`` is
+table's entries. The trim that brings the leg to ``L`` is
 
     trim(L) = l0 + g dl(L) - L,   dl(L) the reading whose length is L  (the model's inverse),
 
-so each table entry is the pair ``(L_k, trim_k)`` of a reading ``dl_k`` on the leg's stroke
-(widened to hold the home switch, reading 0):
+so each table entry is the pair ``(L_k, trim_k)`` of a reading ``dl_k`` on the leg's stroke:
 ``L_k = l(dl_k)``, ``trim_k = l0 + g dl_k - L_k = -c(dl_k)``: exact at the entries, no inverse
-needed. :func:`comp_tables` spaces the readings evenly over the stroke and doubles their number
-until the linear interpolation is within a tolerance everywhere on the stroke (at most
-:data:`MAX_ENTRIES`, LinuxCNC's ``EMCMOT_COMP_SIZE``).
+needed. :func:`comp_tables` spaces the readings evenly over the stroke, its ends the first and
+last entries, and doubles their number until the linear interpolation is within a tolerance
+everywhere on the stroke (at most :data:`MAX_ENTRIES`, LinuxCNC's ``EMCMOT_COMP_SIZE``).
+
+Beyond its first and last entries LinuxCNC holds the end trims: its table starts with an entry
+at ``-DBL_MAX`` whose trim is set to the first entry's with slope 0, and the last entry keeps
+slope 0 (``EMCMOT_SET_JOINT_COMP`` in ``src/emc/motion/command.c``, ``compute_screw_comp`` in
+``src/emc/motion/control.c``). A held trim ``-c(end)`` is the stroke model's own continuation,
+the curve held at its end value (``l = l0 + g dl + c(end)``), so the table agrees with the
+model at every joint position, the home switch (reading 0) included wherever it lies: no
+entry beyond the stroke is needed.
 
 Homing sets the joint position to ``HOME_OFFSET`` at the switch (reading 0) with the trim
 there, so the motor's travel from the switch is ``L + trim(L) - HOME_OFFSET - trim(HOME_OFFSET)``;
@@ -97,9 +103,9 @@ def comp_tables(geometry: Geometry, tolerance: float = TABLE_TOLERANCE) -> list[
     if ranges is None:
         raise ValueError(f"the {model.name} leg model has no stroke to tabulate")
     model.check_invertible(geometry.leg_block())
-    # the home switch (reading 0) inside the table: LinuxCNC holds the end trims beyond it,
-    # and homing takes the trim at HOME_OFFSET
-    low, high = np.minimum(ranges[0], 0.0), np.maximum(ranges[1], 0.0)
+    # the stroke's ends are the table's: beyond them LinuxCNC holds the end trims, which is the
+    # model's own continuation (the curve held), so no entry beyond the stroke is needed
+    low, high = ranges
     fine_l, fine_t = _entries(geometry, low, high, _CHECK_POINTS)
     tables: list[CompTable | None] = [None] * 6
     count = 9
@@ -179,8 +185,9 @@ def stroke_from_tables(
     geometry: Geometry, tables: list[CompTable], degree: int, low: NDArray, high: NDArray
 ) -> tuple[Geometry, float]:
     """``geometry`` (linear legs, its ``l0`` and gains those of the tables' machine) with the
-    stroke model of ``degree`` over ``[low, high]`` fitted to the tables' points, and the
-    largest residual of the fit (mm)."""
+    stroke model of ``degree`` over ``[low, high]`` fitted to the tables' points on the stroke,
+    and the largest residual of the model at all the points (mm; those beyond the stroke are
+    held there, as LinuxCNC holds a table's end trims)."""
     model = StrokeLegs(degree, low, high)
     terms = np.zeros((6, len(model.terms)))
     worst = 0.0
@@ -189,12 +196,14 @@ def stroke_from_tables(
         dl = (table.nominal + table.trim - l0[leg]) / gains[leg]
         curve = -table.trim
         x = (2 * dl - low[leg] - high[leg]) / (high[leg] - low[leg])
-        basis = legendre_values(x, degree)[0][:, 2:]
-        if len(dl) < basis.shape[1]:
+        basis = legendre_values(np.clip(x, -1.0, 1.0), degree)[0][:, 2:]
+        on = np.abs(x) <= 1 + 1e-9  # a table of another stroke: its points on this one decide
+        if np.sum(on) < basis.shape[1]:
             raise LinuxCNCFormatError(
-                f"joint {leg}: {len(dl)} table entries cannot determine the {basis.shape[1]} stroke terms"
+                f"joint {leg}: {int(np.sum(on))} table entries on the stroke [{low[leg]:g}, {high[leg]:g}] "
+                f"cannot determine the {basis.shape[1]} stroke terms"
             )
-        terms[leg], *_ = np.linalg.lstsq(basis, curve, rcond=None)
+        terms[leg], *_ = np.linalg.lstsq(basis[on], curve[on], rcond=None)
         worst = max(worst, float(np.max(np.abs(basis @ terms[leg] - curve))))
     return geometry.replace(leg_model=model, leg_terms=terms), worst
 

@@ -336,6 +336,12 @@ def import_linuxcnc(
                 gains[n] = gain
             lo, hi = ini.number(section, "MIN_LIMIT"), ini.number(section, "MAX_LIMIT")
             if lo is not None and hi is not None:
+                if lo > hi:  # LinuxCNC refuses every move of such a joint: no machine is described
+                    line = ini.get(section, "MIN_LIMIT")[1]  # type: ignore[index]
+                    raise LinuxCNCFormatError(
+                        f"{ini_name}: line {line}: [{section}] MIN_LIMIT {lo:g} exceeds its MAX_LIMIT "
+                        f"{hi:g}: the joint has no range"
+                    )
                 limits.append((lo, hi))
 
     geometry_mm = Geometry(
@@ -373,7 +379,10 @@ def import_linuxcnc(
                 "leg length limits not set"
             )
         else:
-            warnings.append(f"{ini_name}: joint limits leave no range: leg length limits not set")
+            raise LinuxCNCFormatError(
+                f"{ini_name}: the joints' limits have no common range (the tightest are [{lo:g}, {hi:g}] "
+                "mm): hexcal's leg limits hold for every leg; correct MIN_LIMIT/MAX_LIMIT"
+            )
 
     workspace = None
     if ini is not None:
@@ -411,7 +420,13 @@ def import_linuxcnc(
         name=name,
     )
     if ini is not None:  # joint compensation tables: a stroke leg model (hexcal.io.linuxcnc_comp)
+        from hexcal.io.linuxcnc_checks import check_comp_tables, check_imported_model, comp_file_tables
         from hexcal.io.linuxcnc_comp import import_comp_tables
 
+        tables = comp_file_tables(ini, comp_reader)
+        if tables:
+            check_comp_tables(ini, tables, geometry)
         geometry = import_comp_tables(geometry, ini, comp_reader, warnings)
+        if tables:
+            check_imported_model(geometry, ini.name, tables)
     return geometry, warnings

@@ -1,7 +1,9 @@
 """Pose, measurement and leg files (docs/formats.md), read with :mod:`hexcal.io.table_reading`.
 
 Orientation columns are one of ``a, b, c`` (rad), ``a_deg, b_deg, c_deg`` or ``qx, qy, qz, qw``
-(a unit quaternion, scalar last); leg files hold ``l1..l6`` and/or ``dl1..dl6``.
+(a unit quaternion, scalar last); leg files hold ``l1..l6`` and/or ``dl1..dl6``. Each file may
+have covariate columns (``time``, leg temperatures, payload: :mod:`hexcal.io.covariate_columns`),
+read and checked with the rest and carried with the rows.
 """
 
 from __future__ import annotations
@@ -10,12 +12,15 @@ import math
 import os
 import warnings
 from collections.abc import Callable, Iterator, Mapping
+from typing import Literal, overload
 
 import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning
+from hexcal.instruments.covariates import NO_COVARIATES, Covariates
 from hexcal.instruments.pose import Measurements
+from hexcal.io.covariate_columns import BlockCovariates, covariate_columns, table_covariates
 from hexcal.io.inputs import DEFAULT_MAX_ROWS, MEASUREMENT_MAX_ROWS
 from hexcal.io.table_fast import strictly_increasing
 from hexcal.io.table_reading import iter_tables, read_table
@@ -105,6 +110,28 @@ def table_poses(table: Table, euler: str) -> NDArray[np.float64]:
     return np.concatenate([position, angles], axis=1)
 
 
+PoseRows = tuple[NDArray[np.float64], tuple[str, ...]]
+PoseRowsWithCovariates = tuple[NDArray[np.float64], tuple[str, ...], Covariates]
+
+
+def _pose_numbers(table: Table) -> tuple[str, ...]:
+    """Convert a pose table's numbers in one pass (the pose and covariate columns); the
+    covariate columns, their set checked."""
+    found = covariate_columns(table)
+    if found:
+        group = ORIENTATION_GROUPS[_orientation_group(table)]
+        table.numbers(("x", "y", "z", *group, *found))
+    return found
+
+
+@overload
+def read_poses(path: Path, euler: str, max_rows: int | None = ..., delimiter: str | None = ...,
+               decimal: str | None = ..., columns: Columns = ..., *,
+               covariates: Literal[False] = ...) -> PoseRows: ...  # fmt: skip
+@overload
+def read_poses(path: Path, euler: str, max_rows: int | None = ..., delimiter: str | None = ...,
+               decimal: str | None = ..., columns: Columns = ..., *,
+               covariates: Literal[True]) -> PoseRowsWithCovariates: ...  # fmt: skip
 def read_poses(
     path: Path,
     euler: str,
@@ -112,11 +139,19 @@ def read_poses(
     delimiter: str | None = None,
     decimal: str | None = None,
     columns: Columns = None,
-) -> tuple[NDArray[np.float64], tuple[str, ...]]:
+    *,
+    covariates: bool = False,
+) -> PoseRows | PoseRowsWithCovariates:
     """A pose file: poses ``(m, 6)`` (mm, rad, in ``euler``) and their ids (``max_rows``,
-    ``delimiter``, ``decimal``, ``columns``: see :func:`read_table`)."""
+    ``delimiter``, ``decimal``, ``columns``: see :func:`read_table`).
+
+    Covariate columns are read and checked in any case; ``covariates=True`` returns them as a
+    third value (a :class:`~hexcal.instruments.Covariates`, none present without the columns).
+    """
     table = read_table(path, max_rows, delimiter, decimal, columns)
-    return table_poses(table, euler), table.ids()
+    found = _pose_numbers(table)
+    poses, cov = table_poses(table, euler), table_covariates(table, found)
+    return (poses, table.ids(), cov) if covariates else (poses, table.ids())
 
 
 def read_measurements(
@@ -135,14 +170,16 @@ def read_measurements(
     """
     table = read_table(path, max_rows, delimiter, decimal, columns)
     group = ORIENTATION_GROUPS[_orientation_group(table)]
-    table.numbers(("x", "y", "z", *group, *LEG_READING_COLUMNS))  # converted in one pass, kept
+    found = covariate_columns(table)
+    table.numbers(("x", "y", "z", *group, *LEG_READING_COLUMNS, *found))  # converted in one pass, kept
     poses = table_poses(table, euler)
     readings = table.numbers(LEG_READING_COLUMNS)
-    return Measurements(poses, readings, table.ids())
+    return Measurements(poses, readings, table.ids(), table_covariates(table, found))
 
 
 class LegData:
-    """A leg file: absolute lengths and/or readings, and ids.
+    """A leg file: absolute lengths and/or readings, ids and covariates (none present without
+    the columns).
 
     When the file has both, ``lengths`` is converted when first used (``fk`` uses only the
     readings); ``has_lengths`` says whether the file has them without converting.
@@ -154,9 +191,11 @@ class LegData:
         readings: NDArray[np.float64] | None,
         ids: tuple[str, ...],
         table: Table | None = None,
+        covariates: Covariates | None = None,
     ) -> None:
         self._lengths, self.readings, self.ids, self._table = lengths, readings, ids, table
         self.has_lengths = lengths is not None or table is not None
+        self.covariates = NO_COVARIATES if covariates is None else covariates
 
     @property
     def lengths(self) -> NDArray[np.float64] | None:
@@ -178,20 +217,26 @@ def read_legs(
 
 def table_legs(table: Table, ids: tuple[str, ...] | None = None) -> LegData:
     """Leg lengths and/or readings of a table (``ids``: already read, for blocks)."""
-    return _legs(table, lambda: table.ids() if ids is None else ids)
+    return _legs(table, lambda: table.ids() if ids is None else ids, table_covariates)
 
 
-def _legs(table: Table, ids: Callable[[], tuple[str, ...]]) -> LegData:
-    """Leg data of a table, its ids read after the numbers (read with them, in one pass)."""
+def _legs(table: Table, ids: Callable[[], tuple[str, ...]], covariates: Callable[..., Covariates]) -> LegData:
+    """Leg data of a table, its ids read after the numbers (read with them, in one pass), and
+    its covariates (``covariates(table, columns)``)."""
     has_l = any(table.has(c) for c in LEG_LENGTH_COLUMNS)
     has_dl = any(table.has(c) for c in LEG_READING_COLUMNS)
     if not (has_l or has_dl):
         raise InputError(f"{table.path}: missing leg columns: give l1..l6 or dl1..dl6{table.unmapped_hint()}")
     if has_l:
         table.numbers([c for c in LEG_LENGTH_COLUMNS if not table.has(c)][:1])  # a missing one: named now
+    found = covariate_columns(table)
+    legs = LEG_READING_COLUMNS if has_dl else LEG_LENGTH_COLUMNS
+    if found:  # the legs' and the covariates' numbers in one pass
+        table.numbers((*legs, *found))
     readings = table.numbers(LEG_READING_COLUMNS) if has_dl else None
     lengths = table.numbers(LEG_LENGTH_COLUMNS) if has_l and not has_dl else None
-    return LegData(lengths, readings, ids(), table if has_l and has_dl else None)
+    cov = covariates(table, found)
+    return LegData(lengths, readings, ids(), table if has_l and has_dl else None, cov)
 
 
 class _BlockIds:
@@ -251,18 +296,24 @@ def iter_poses(
     delimiter: str | None = None,
     decimal: str | None = None,
     columns: Columns = None,
-) -> Iterator[tuple[NDArray[np.float64], tuple[str, ...]]]:
-    """A pose file in blocks: ``(poses (k, 6), ids)`` per block of ``block_rows`` rows.
+    *,
+    covariates: bool = False,
+) -> Iterator[PoseRows | PoseRowsWithCovariates]:
+    """A pose file in blocks: ``(poses (k, 6), ids)`` per block of ``block_rows`` rows, and
+    with ``covariates=True`` the block's :class:`~hexcal.instruments.Covariates` third (read
+    and checked in any case; the time increasing across blocks).
 
     Memory is bounded by one block (and the ids seen, to refuse repeats), whatever the
     length of the file; the radians-look-like-degrees warning is given once.
     """
     ids = _BlockIds(lambda: iter_tables(path, block_rows, delimiter, decimal, columns))
+    times = BlockCovariates()
     said: set[str] = set()
     for table in iter_tables(path, block_rows, delimiter, decimal, columns):
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", InputWarning)
+                found = _pose_numbers(table)
                 poses = table_poses(table, euler)
         finally:  # each warning once a file (the degrees one names its first block only)
             for item in caught:
@@ -270,7 +321,8 @@ def iter_poses(
                 if key not in said:
                     warnings.warn(item.message, item.category, stacklevel=2)
                     said.add(key)
-        yield poses, ids(table)
+        cov = times(table, found)
+        yield (poses, ids(table), cov) if covariates else (poses, ids(table))
 
 
 def iter_legs(
@@ -280,7 +332,9 @@ def iter_legs(
     decimal: str | None = None,
     columns: Columns = None,
 ) -> Iterator[LegData]:
-    """A leg file in blocks of ``block_rows`` rows (memory bounded by one block)."""
+    """A leg file in blocks of ``block_rows`` rows (memory bounded by one block; the time of
+    the covariates increasing across blocks)."""
     ids = _BlockIds(lambda: iter_tables(path, block_rows, delimiter, decimal, columns))
+    times = BlockCovariates()
     for table in iter_tables(path, block_rows, delimiter, decimal, columns):
-        yield _legs(table, lambda table=table: ids(table))
+        yield _legs(table, lambda table=table: ids(table), times)

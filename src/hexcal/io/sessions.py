@@ -157,13 +157,49 @@ def read_session(
         raise InputError(f"no reader of {instrument.name} data files") from None
     own = getattr(getattr(instrument, "setup", None), "columns", None)
     merged = merge_columns(own, columns)
-    if merged is None:
-        values = reader(data, instrument, euler, delimiter, decimal)
-    elif "columns" in inspect.signature(reader).parameters:
-        values = reader(data, instrument, euler, delimiter, decimal, columns=merged)
-    else:
-        raise InputError(f"{data}: the reader of {instrument.name} data files takes no column map")
+    try:
+        if merged is None:
+            values = reader(data, instrument, euler, delimiter, decimal)
+        elif "columns" in inspect.signature(reader).parameters:
+            values = reader(data, instrument, euler, delimiter, decimal, columns=merged)
+        else:
+            raise InputError(f"{data}: the reader of {instrument.name} data files takes no column map")
+    except InputError as exc:
+        if setup is None and "missing" in str(exc):  # read as the full pose: another instrument's?
+            hint = _setup_missing(data, delimiter, decimal, merged)
+            if hint:
+                raise InputError(hint) from None
+        raise
     return Session(values, instrument, label or Path(data).name)
+
+
+def _setup_missing(
+    data: str | os.PathLike[str], delimiter: str | None, decimal: str | None, columns: Columns
+) -> str | None:
+    """The line for a file read as the full pose (no setup) whose columns are another
+    instrument's data: target coordinates (``NAME.x``, ``NAME.y``, ``NAME.z``) or a bar's
+    reading (``d``) beside the legs, and no pose; None otherwise."""
+    from hexcal.io.table_reading import read_table
+
+    try:
+        names = set(read_table(data, delimiter=delimiter, decimal=decimal, columns=columns).columns)
+    except (InputError, OSError):
+        return None
+    if {"x", "y", "z"} <= names:
+        return None
+    targets = sorted({n[:-2] for n in names if n.endswith(".x") and {n[:-2] + ".y", n[:-2] + ".z"} <= names})
+    if targets:
+        return (
+            f"{data}: the file looks like target positions ({', '.join(t + '.x/y/z' for t in targets[:4])}"
+            f"{', ...' if len(targets) > 4 else ''}), not poses: --setup is missing (a setup with "
+            "instrument_frame and targets for this file)"
+        )
+    if "d" in names:
+        return (
+            f"{data}: the file looks like ballbar readings (column d), not poses: --setup is missing "
+            "(a ballbar setup)"
+        )
+    return None
 
 
 def read_sessions(

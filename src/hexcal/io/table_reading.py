@@ -7,9 +7,10 @@ skipped, and one (*, or two) UTF-8 byte order marks. The delimiter is ``;`` if t
 holds one, else a tab if it holds one, else ``,`` (or ``delimiter=``); the decimal mark is
 detected or given (``decimal=``). A unit row right under the header (``mm``, ``[mm]``, ``(rad)``,
 ``deg``...) needs a cell for every column and is skipped: lengths (``x y z``, ``l1..l6``,
-``dl1..dl6``, ``t1.x``...) in mm, ``a b c`` in rad, ``a_deg b_deg c_deg`` in deg, quaternions
-without unit. A field over :data:`~hexcal.io.tables.MAX_FIELD_CHARS` characters and more than
-``max_rows`` rows (``--max-rows``) are refused at once, while reading. ``columns=`` maps
+``dl1..dl6``, ``t1.x``, ``payload_x``...) in mm, ``a b c`` in rad, ``a_deg b_deg c_deg`` in deg,
+quaternions without unit, ``time`` in s, temperatures in °C, ``payload_kg`` in kg. A field
+over :data:`~hexcal.io.tables.MAX_FIELD_CHARS` characters and more than ``max_rows`` rows
+(``--max-rows``) are refused at once, while reading. ``columns=`` maps
 hexcal's column names to the file's (``{"x": "position_x"}``). Chunks of plain rows (no
 quotes, comments, blank or indented lines, non-ASCII text) are kept as they are, checked by
 the number parser; others are read line by line. Every file kind takes the same options.

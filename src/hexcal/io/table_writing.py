@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.core.text import printable
+from hexcal.instruments.covariates import Covariates
 from hexcal.instruments.pose import Measurements
 from hexcal.io.files import atomic_write
 from hexcal.io.outputs import OutputError, OutputSet
@@ -390,9 +391,12 @@ def write_poses(
     ids: Sequence[str] | None = None,
     comment: str | None = None,
     outputs: OutputSet | None = None,
+    covariates: Covariates | None = None,
 ) -> None:
-    """Write a pose file with angles in radians (columns ``x, y, z, a, b, c``)."""
-    write_table(path, ("x", "y", "z", "a", "b", "c"), poses, ids, comment, outputs)
+    """Write a pose file with angles in radians (columns ``x, y, z, a, b, c``, then the covariates)."""
+    extra = {} if covariates is None else covariates.to_columns()
+    data = np.column_stack([poses, *extra.values()]) if extra else poses
+    write_table(path, ("x", "y", "z", "a", "b", "c", *extra), data, ids, comment, outputs)
 
 
 def write_legs(
@@ -402,17 +406,20 @@ def write_legs(
     ids: Sequence[str] | None = None,
     comment: str | None = None,
     outputs: OutputSet | None = None,
+    covariates: Covariates | None = None,
 ) -> None:
-    """Write a leg file with ``l1..l6`` and ``dl1..dl6`` (the two joined a block at a time)."""
+    """Write a leg file with ``l1..l6``, ``dl1..dl6`` (joined a block at a time) and the covariates."""
     lengths, readings = np.asarray(lengths, dtype=float), np.asarray(readings, dtype=float)
     if lengths.shape != readings.shape:
         raise ValueError(f"lengths {lengths.shape} and readings {readings.shape} differ")
+    extra = {} if covariates is None else covariates.to_columns()
+    parts = [lengths, readings, *(v[:, None] for v in extra.values())]
     blocks = (
-        (np.concatenate([lengths[k : k + IDS_ROWS], readings[k : k + IDS_ROWS]], axis=1),
+        (np.concatenate([p[k : k + IDS_ROWS] for p in parts], axis=1),
          None if ids is None else ids[k : k + IDS_ROWS])
         for k in range(0, len(lengths), IDS_ROWS)
     )  # fmt: skip
-    write_table_blocks(path, LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS, blocks, comment, outputs)
+    write_table_blocks(path, (*LEG_LENGTH_COLUMNS, *LEG_READING_COLUMNS, *extra), blocks, comment, outputs)
 
 
 def write_measurements(
@@ -423,7 +430,8 @@ def write_measurements(
     comment: str | None = None,
     outputs: OutputSet | None = None,
 ) -> None:
-    """Write a measurement file with orientations as ``rad``, ``deg`` or ``quat``."""
+    """Write a measurement file with orientations as ``rad``, ``deg`` or ``quat`` (and the
+    covariates of the measurements)."""
     poses = measurements.poses
     if orientation == "rad":
         angles = poses[:, 3:]
@@ -435,6 +443,7 @@ def write_measurements(
         angles = Rotation.from_euler(euler, poses[:, 3:]).as_quat()
     else:
         raise ValueError(f"orientation must be rad, deg or quat, got {orientation!r}")
-    columns = LEG_READING_COLUMNS + ("x", "y", "z") + ORIENTATION_GROUPS[orientation]
-    data = np.concatenate([measurements.readings, poses[:, :3], angles], axis=1)
+    extra = measurements.covariates.to_columns()
+    columns = LEG_READING_COLUMNS + ("x", "y", "z") + ORIENTATION_GROUPS[orientation] + tuple(extra)
+    data = np.column_stack([measurements.readings, poses[:, :3], angles, *extra.values()])
     write_table(path, columns, data, measurements.ids, comment, outputs)

@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hexcal.errors import InputError, InputWarning, UsageError
+from hexcal.instruments.covariates import COVARIATE_COLUMNS
 from hexcal.io.table_fast import TableBlock, block_numbers, loadtxt_numbers, strictly_increasing
 
 #: Rows converted (or read, by ``iter_tables``) at a time.
@@ -55,15 +56,19 @@ LEG_LENGTH_COLUMNS = tuple(f"l{i}" for i in range(1, 7))
 LEG_READING_COLUMNS = tuple(f"dl{i}" for i in range(1, 7))
 #: hexcal's column names, the keys of a column map (and target columns ``t1.x``, ``t2.y``, ...).
 COLUMN_NAMES = ("id", "x", "y", "z", *(c for g in ORIENTATION_GROUPS.values() for c in g))
-COLUMN_NAMES += LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS
+COLUMN_NAMES += LEG_LENGTH_COLUMNS + LEG_READING_COLUMNS + COVARIATE_COLUMNS
 TARGET_COLUMN = re.compile(r"^(t[0-9]+)\.([xyz])$")
 
 #: Words a unit row may hold (brackets and case ignored); only some are accepted per column.
 UNIT_WORDS = {"mm", "rad", "deg", "°", "-", "", "1"}
 KNOWN_UNITS = UNIT_WORDS | {"m", "cm", "dm", "um", "µm", "μm", "nm", "in", "inch", "ft", "mrad", "urad"}
 KNOWN_UNITS |= {"µrad", "degree", "degrees", "grad", "gon", "rev", "revolutions", "turns"}
-_LENGTHS = re.compile(r"^(x|y|z|d|d?l[1-6]|t[0-9]+\.[xyz])$")
+KNOWN_UNITS |= {"s", "ms", "min", "h", "kg", "g", "lb", "°c", "degc", "celsius", "k", "kelvin", "°f", "degf"}
+_LENGTHS = re.compile(r"^(x|y|z|d|d?l[1-6]|t[0-9]+\.[xyz]|payload_[xyz])$")
 _UNITS = {  # per column kind: the units accepted, and how to say so
+    "temperature": ({"°c", "degc", "celsius", ""}, "°C here"),
+    "time": ({"s", ""}, "s here"),
+    "mass": ({"kg", ""}, "kg here"),
     "length": ({"mm", ""}, "mm here"),
     "rad": ({"rad", ""}, "rad here (name the columns a_deg, b_deg, c_deg for degrees)"),
     "deg": ({"deg", "°", "degree", "degrees", ""}, "deg here"),
@@ -74,6 +79,7 @@ _UNITS = {  # per column kind: the units accepted, and how to say so
 def unit_refused(name: str, unit: str) -> str | None:
     """What column ``name`` (hexcal's name) accepts when a unit row gives it ``unit``, or None."""
     kinds = {c: group if group != "quat" else "none" for group, cs in ORIENTATION_GROUPS.items() for c in cs}
+    kinds |= {"time": "time", "payload_kg": "mass"} | dict.fromkeys(COVARIATE_COLUMNS[1:8], "temperature")
     kind = "length" if _LENGTHS.match(name) else kinds.get(name)
     if kind is None or unit in _UNITS[kind][0]:
         return None

@@ -25,6 +25,7 @@ from hexcal.errors import InputError, UsageError
 from hexcal.instruments.pose import Measurements
 from hexcal.instruments.setup import Setup
 from hexcal.instruments.targets import TargetMeasurements
+from hexcal.io.covariate_columns import covariate_columns, table_covariates
 from hexcal.io.files import atomic_write
 from hexcal.io.inputs import MEASUREMENT_MAX_ROWS, read_text
 from hexcal.io.measurement_files import table_poses
@@ -103,8 +104,10 @@ def read_target_measurements(
     if setup.kind != "targets":
         raise InputError(f"{path}: the setup has a tool, not targets: read the file as tool poses")
     table = read_export(path, delimiter, decimal, columns, max_rows)
-    readings = table.numbers(LEG_READING_COLUMNS)
-    return TargetMeasurements(readings, _target_values(table, setup), setup.target_names, table.ids())
+    found = covariate_columns(table)
+    readings = table.numbers((*LEG_READING_COLUMNS, *found))[:, :6]  # in one pass
+    values, names = _target_values(table, setup), setup.target_names
+    return TargetMeasurements(readings, values, names, table.ids(), table_covariates(table, found))
 
 
 def read_tool_measurements(
@@ -118,8 +121,10 @@ def read_tool_measurements(
     """A tool pose file (the columns of a measurement file, the tool's pose in the instrument frame)."""
     table = read_export(path, delimiter, decimal, columns, max_rows)
     pose = ("x", "y", "z", *(c for group in ORIENTATION_GROUPS.values() for c in group))
-    table.numbers([c for c in pose if table.has(c)] + list(LEG_READING_COLUMNS))  # in one pass
-    return Measurements(table_poses(table, euler), table.numbers(LEG_READING_COLUMNS), table.ids())
+    found = covariate_columns(table)
+    table.numbers([c for c in pose if table.has(c)] + list(LEG_READING_COLUMNS) + list(found))  # in one pass
+    poses, readings = table_poses(table, euler), table.numbers(LEG_READING_COLUMNS)
+    return Measurements(poses, readings, table.ids(), table_covariates(table, found))
 
 
 def _listed(names: list[str] | tuple[str, ...], most: int = 8) -> str:
@@ -131,8 +136,11 @@ def _listed(names: list[str] | tuple[str, ...], most: int = 8) -> str:
 def write_target_measurements(
     path: str | os.PathLike[str], data: TargetMeasurements, comment: str | None = None
 ) -> None:
-    """Write a target measurement file (standard CSV; lost targets as empty cells), atomically."""
-    cols = ["id", *LEG_READING_COLUMNS] + [f"{t}.{ax}" for t in data.names for ax in "xyz"]
+    """Write a target measurement file (standard CSV; lost targets as empty cells; the covariates
+    after the targets), atomically."""
+    extra = data.covariates.to_columns()
+    cols = ["id", *LEG_READING_COLUMNS] + [f"{t}.{ax}" for t in data.names for ax in "xyz"] + list(extra)
+    more = np.column_stack(list(extra.values())) if extra else np.empty((len(data), 0))
     with atomic_write(path) as fh:
         for line in comment.rstrip("\n").split("\n") if comment else ():
             fh.write(f"# {printable(line)}\n")
@@ -142,6 +150,7 @@ def write_target_measurements(
         for k in range(len(data)):
             cells = [format(float(v), ".15g") for v in data.readings[k]]
             cells += ["" if np.isnan(v) else format(float(v), ".15g") for v in flat[k]]
+            cells += [format(float(v), ".15g") for v in more[k]]
             writer.writerow([data.ids[k], *cells])
 
 

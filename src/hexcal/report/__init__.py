@@ -12,7 +12,8 @@ Modules, by concept:
   error-map claims), ``instrument`` (planning with a setup): text renderers;
 - ``tables``: CSV tables; ``units``: how a parameter is shown (units, degrees, blocks);
 - ``html``: the page (escaping, sections, tables, the figure grid, the inputs, the shell);
-- ``calibration_pages`` (identify, validate), ``study_pages`` (paper, simulate),
+- ``calibration_pages`` (identify), ``validation_pages`` (validate and its ISO tests),
+  ``study_pages`` (paper, simulate),
   ``planning_pages`` (observability, select): each family's pages, data and page;
 - ``figures``: every figure described once, drawn to PNG or SVG.
 
@@ -29,9 +30,11 @@ Public names
 - ``render``, ``render_html``, ``RENDERERS``, ``TEXT_RENDERERS``, ``formats``, ``register``:
   results rendered by kind and format (text, json, html), and how to add a renderer.
 - ``calibration_dict``, ``identification_dict``, ``identification_report_dict``,
-  ``validation_dict``, ``validation_json``, ``json_text``: results as plain dictionaries and
-  strict JSON (docs/formats.md "JSON outputs"); ``calibration_summary``: a calibration as an
-  HTML fragment (a notebook's view).
+  ``validation_report_dict``, ``validation_dict``, ``validation_json``, ``json_text``: results
+  as plain dictionaries and strict JSON (docs/formats.md "JSON outputs"), the first and the
+  fourth the one schema of a calibration and of a validation, which every report of each
+  renders; ``calibration_summary``, ``validation_summary``: a calibration and a validation as
+  HTML fragments (a notebook's view).
 - ``format_identification_report``, ``format_validation``, ``identification_text``,
   ``validation_text``, ``study_text``, ``paper_text``, ``observability_text``,
   ``select_text``: the text reports the commands print.
@@ -62,7 +65,7 @@ _NAMES = {
     "STUDY_COLUMNS": "tables",
     "TEXT_RENDERERS": "registry",
     "Table": "tables",
-    "VALIDATION_CAPTIONS": "calibration_pages",
+    "VALIDATION_CAPTIONS": "validation_pages",
     "WEAK_SINGULAR_VALUE": "text",
     "check_html_target": "html",
     "claims_text": "plan",
@@ -88,8 +91,8 @@ _NAMES = {
     "identification_text": "text",
     "inputs_table": "html",
     "iso_dict": "iso_summary",
-    "iso_page": "iso_pages",
-    "iso_report": "iso_pages",
+    "iso_page": "validation_pages",
+    "iso_report": "validation_pages",
     "iso_text": "iso_summary",
     "json_text": "jsonout",
     "key_value_table": "html",
@@ -132,8 +135,12 @@ _NAMES = {
     "validation_json": "convert",
     "validation_distributions": "figures",
     "validation_errors": "figures",
-    "validation_page": "calibration_pages",
-    "validation_report": "calibration_pages",
+    "validation_page": "validation_pages",
+    "validation_per_pose": "convert",
+    "validation_report": "validation_pages",
+    "validation_report_dict": "convert",
+    "validation_summaries": "units",
+    "validation_summary": "validation_pages",
     "validation_table": "tables",
     "validation_text": "text",
     "verdict_block": "html",
@@ -182,6 +189,8 @@ __all__ = [
     "validation_json",
     "validation_page",
     "validation_report",
+    "validation_report_dict",
+    "validation_summary",
     "validation_table",
     "validation_text",
 ]

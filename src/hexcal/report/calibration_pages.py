@@ -1,11 +1,11 @@
-"""The pages of ``hexcal identify --html`` and ``hexcal validate --html``: what each shows,
-gathered from the results, and the page itself.
+"""The page of ``hexcal identify --html`` (and a calibration's view in a notebook): what it
+shows, gathered from the calibration, and the page itself (``hexcal validate``'s pages:
+:mod:`hexcal.report.validation_pages`).
 
-:func:`identification_report` and :func:`validation_report` gather, from a result, its
-``to_dict()`` and its figures (SVG), into one JSON-ready mapping; :func:`identification_page`
-and :func:`validation_page` turn such a mapping into the self-contained page (they read
-plain dictionaries only). Lengths in mm, instrument angles in degrees, errors of
-orientation in mrad, everywhere on a page and in its figures.
+:func:`identification_report` gathers, from a calibration, its ``to_dict()`` and its figures
+(SVG), into one JSON-ready mapping; :func:`identification_page` turns such a mapping into the
+self-contained page (it reads plain dictionaries only). Lengths in mm, instrument angles in
+degrees, errors of orientation in mrad, everywhere on a page and in its figures.
 
 >>> result = {"method": "ml", "poses": 15, "names": ["u1.x"], "start": {"u1.x": 305.4},
 ...           "parameters": {"u1.x": 305.3}, "stderr": {"u1.x": 0.01}, "bound": {"u1.x": 0.009}}
@@ -30,19 +30,10 @@ from hexcal.report.html import (
     inputs_table,
     key_value_table,
     section,
+    to_precision,
     verdict_block,
 )
-from hexcal.report.units import (
-    OWN_NOTE,
-    UNIT_WORDS,
-    display,
-    fmt,
-    has_poses,
-    is_angle,
-    own_rows,
-    parameter_unit,
-    validation_rows,
-)
+from hexcal.report.units import UNIT_WORDS, display, fmt, is_angle, parameter_unit
 
 #: Captions of the identification figures, by figure name.
 IDENTIFICATION_CAPTIONS = {
@@ -59,15 +50,6 @@ IDENTIFICATION_CAPTIONS = {
     "drawn as rings, one per pose. Dashed: the nominal workspace box (the poses a miscalibrated machine "
     "reaches may lie off it).",
 }
-
-VALIDATION_CAPTIONS = {
-    "pose_errors": "Position (mm) and orientation (mrad) error of every held-out pose, per geometry.",
-    "distributions": "Distribution of the held-out pose errors per geometry (geometries a decade or more "
-    "apart: a logarithmic axis, each geometry with its own logarithmic bins, so both show their shape).",
-}
-
-#: At most this many rows in a per-pose table (the worst poses; a note says so).
-MAX_POSE_ROWS = 2000
 
 #: Correlation matrices of more parameters than this span the page's width.
 WIDE_CORRELATION = 24
@@ -278,7 +260,9 @@ def _sessions_section(result: Mapping[str, Any]) -> str:
 
 def parameter_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
     """Rows ``(name, unit, nominal, identified, change, stderr, bound)`` of the parameter
-    table, in the display unit of each parameter (degrees for instrument angles)."""
+    table, in the display unit of each parameter (degrees for instrument angles); the
+    identified value and the change shown to the precision of the standard error (its two
+    significant digits: :func:`hexcal.report.html.to_precision`)."""
     names = result.get("names") or list(result.get("parameters", {}))
     start, values = result.get("start", {}), result.get("parameters", {})
     stderr, bound = result.get("stderr", {}), result.get("bound") or {}
@@ -287,6 +271,9 @@ def parameter_rows(result: Mapping[str, Any]) -> list[tuple[Any, ...]]:
         value, nominal = values.get(name), start.get(name)
         change = value - nominal if value is not None and nominal is not None else None
         shown = [display(name, v) for v in (nominal, value, change, stderr.get(name), bound.get(name))]
+        error = shown[3]
+        shown[1], shown[2] = to_precision(shown[1], error), to_precision(shown[2], error)
+        shown[3] = to_precision(error, error)
         rows.append((name, UNIT_WORDS[parameter_unit(name)], *shown))
     return rows
 
@@ -380,91 +367,3 @@ def identification_page(report: Mapping[str, Any]) -> str:
     sections.append(section("Inputs", inputs_table(report.get("inputs", {})), "inputs"))
     title = report.get("title", "hexcal calibration report")
     return html_page(title, [s for s in sections if s], report.get("subtitle", ""))
-
-
-# -- validate ------------------------------------------------------------------------------------
-
-
-def validation_report(
-    results: Mapping[str, Any], inputs: Mapping[str, Any] | None = None, title: str = ""
-) -> dict[str, Any]:
-    """Everything the validate page shows: summaries and per-pose errors by geometry name."""
-    dicts = {name: r.to_dict() for name, r in results.items()}
-    first_result = next(iter(results.values()))
-    first = next(iter(dicts.values()))
-    figures = {}
-    if any(has_poses(d) for d in dicts.values()):  # none for a ballbar or one target: no pose
-        figures = {
-            "pose_errors": fig.svg(fig.validation_errors(first["ids"], dicts)),
-            "distributions": fig.svg(fig.validation_distributions(dicts)),
-        }
-    instrument = getattr(first_result, "instrument", "")
-    return {
-        "kind": "validation",
-        "title": title or "Validation on held-out measurements",
-        "subtitle": f"{len(first['ids'])} held-out poses" + (f" ({instrument})" if instrument else ""),
-        "instrument": instrument,
-        "results": dicts,
-        "figures": figures,
-        "inputs": dict(inputs or {}),
-    }
-
-
-def summary_rows(results: Mapping[str, Mapping[str, Any]]) -> list[tuple[Any, ...]]:
-    """Rows of the validate summary, one column per geometry (orientation in mrad); a row
-    no geometry has a value for is left out, the instrument's own errors follow."""
-    summaries = [r["summary"] for r in results.values()]
-    rows = validation_rows(list(summaries[0]) if summaries else [])
-    out = []
-    for label, key, scale in rows:
-        values = [s.get(key) for s in summaries]
-        finite = [v for v in values if isinstance(v, int | float) and v == v and abs(v) != float("inf")]
-        if finite:
-            out.append((label, *(None if v is None else v * scale for v in values)))
-    return out
-
-
-def validation_page(report: Mapping[str, Any]) -> str:
-    """The page of ``hexcal validate --html``: summary side by side, per-pose table, figures
-    (orientation errors in mrad in the tables as in the figures)."""
-    results = report.get("results", {})
-    columns = ("", *results)
-    summary = data_table(columns, summary_rows(results), sortable=False, table_id="summary-table")
-    sections = [section("Summary", summary, "summary")]
-    first = next(iter(results.values()), None)
-    if first is not None and not any(has_poses(r) for r in results.values()):  # a ballbar
-        cols, rows = own_rows(results, first)
-        table = data_table(cols, rows[:MAX_POSE_ROWS], table_id="poses", scroll=True)
-        sections.append(section("Per pose", table + f'<p class="muted">{OWN_NOTE}</p>', "poses"))
-    elif first is not None:
-        per_pose = [
-            (
-                pid,
-                *(
-                    v
-                    for r in results.values()
-                    for v in (
-                        r["position_error"][k],
-                        None if r["orientation_error"][k] is None else r["orientation_error"][k] * 1e3,
-                    )
-                ),
-            )
-            for k, pid in enumerate(first["ids"])
-        ]
-        cols = ["pose"] + [f"{name} {q}" for name in results for q in ("position (mm)", "orientation (mrad)")]
-        note = ""
-        if len(per_pose) > MAX_POSE_ROWS:
-            # a table of 10,000 rows slows the page down: keep the worst poses, say so
-            per_pose = sorted(per_pose, key=lambda row: -row[1])[:MAX_POSE_ROWS]
-            note = (
-                f'<p class="muted" id="poses-note">The {MAX_POSE_ROWS} poses with the largest '
-                f"{esc(next(iter(results)))} position error of {len(first['ids'])}; the full table: "
-                "<code>hexcal validate --out FILE</code>.</p>"
-            )
-        table = data_table(cols, per_pose, table_id="poses", scroll=True)
-        sections.append(section("Per pose", table + note, "poses"))
-    figures = report.get("figures", {})
-    if figures:
-        sections.append(section("Figures", figure_grid(figures, VALIDATION_CAPTIONS), "figures"))
-    sections.append(section("Inputs", inputs_table(report.get("inputs", {})), "inputs"))
-    return html_page(report.get("title", "hexcal validation report"), sections, report.get("subtitle", ""))

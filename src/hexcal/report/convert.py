@@ -174,6 +174,63 @@ def validation_json(calibrated: Any, nominal: Any | None = None) -> dict[str, An
     return body
 
 
+def validation_per_pose(calibrated: Any, nominal: Any | None = None) -> dict[str, Any]:
+    """The per-observation errors of validations side by side: ``ids``, ``value_labels`` (the
+    columns of a per-value error: the targets ``t1``, ...) and, for the ``calibrated`` and the
+    ``nominal`` machine (None when not validated), ``leg_rms`` (of the six leg residuals),
+    ``position_error``, ``orientation_error`` and ``instrument_errors`` (mm and rad, NaN where
+    the instrument gives no value)."""
+
+    def columns(result: Any) -> dict[str, Any]:
+        d = result.to_dict()
+        return {k: d[k] for k in ("leg_rms", "position_error", "orientation_error", "instrument_errors")}
+
+    return {
+        "ids": list(calibrated.ids),
+        "value_labels": list(calibrated.value_labels),
+        "calibrated": columns(calibrated),
+        "nominal": None if nominal is None else columns(nominal),
+    }
+
+
+def validation_report_dict(validation: Any) -> dict[str, Any]:
+    """The one schema of a validation (:class:`hexcal.Validation`): what the text, JSON and HTML
+    reports, the per-pose table and the polar figure of ``hexcal validate`` render, and exactly
+    its ``--json`` file.
+
+    The keys of :func:`validation_json` (the calibrated machine's figures with their units in
+    the keys, ``instrument``, ``registration``, ``expected``, ``nominal``), plus ``iso`` (the ISO
+    figures of :func:`hexcal.report.iso_dict`, or None), ``per_pose``
+    (:func:`validation_per_pose`), ``conditions`` (the names of the calibrated and the nominal
+    geometry, the held-out ``observations``, the ``folds`` and ``seed`` of a re-registration),
+    ``warnings`` (one line each) and ``inputs`` (the files and options, by label).
+    """
+    from hexcal.report.iso_summary import iso_dict
+
+    calibrated, nominal, tests = validation.calibrated, validation.nominal, validation.iso
+    out = validation_json(calibrated, nominal)
+    out["iso"] = None
+    if tests is not None:
+        out["iso"] = iso_dict(
+            tests.circular, tests.poses, note=tests.note, tolerance=tests.tolerance,
+            instrument=calibrated.instrument, names=list(tests.names), after=tests.after,
+        )  # fmt: skip
+    out["per_pose"] = validation_per_pose(calibrated, nominal)
+    other = validation.nominal_geometry
+    out["conditions"] = {
+        "geometry": validation.geometry.name,
+        "nominal_geometry": None if other is None else other.name,
+        "observations": len(calibrated.ids),
+        "folds": validation.folds,
+        "seed": validation.seed,
+    }
+    out["warnings"] = list(validation.warnings)
+    beyond = getattr(validation, "beyond_stroke", None)
+    out["beyond_stroke"] = None if beyond is None else beyond.to_dict()
+    out["inputs"] = dict(validation.inputs)
+    return out
+
+
 def paper_figure_data(experiment: Any) -> dict[str, Any]:
     """The arrays of the paper's Figs. 10 and 11 (see :mod:`hexcal.report.figures`).
 

@@ -174,6 +174,41 @@ def key_value_table(rows: Mapping[str, Any], digits: int = 6) -> str:
 _TEXT = ' class="text"'
 
 
+class Rounded(float):
+    """A number shown as its ``text`` (a value to the precision of its standard error), sorted
+    by its value."""
+
+    text: str
+
+    def __new__(cls, value: float, text: str) -> Rounded:
+        out = super().__new__(cls, value)
+        out.text = text
+        return out
+
+
+#: Significant digits of a standard error, and so the last digit shown of its value.
+ERROR_DIGITS = 2
+
+
+def to_precision(value: Any, stderr: Any) -> Any:
+    """``value`` rounded to the last digit of its standard error's :data:`ERROR_DIGITS`
+    significant digits (a :class:`Rounded`); ``value`` itself without a finite positive error.
+
+    >>> to_precision(305.401234567, 0.0123).text, to_precision(-0.00046, 0.0123).text
+    ('305.401', '-0.000')
+    >>> to_precision(12.7, 35.0).text, to_precision(2.0, None)
+    ('13', 2.0)
+    """
+    try:
+        v, e = float(value), float(stderr)
+    except (TypeError, ValueError):
+        return value
+    if not (math.isfinite(v) and math.isfinite(e) and e > 0):
+        return value
+    decimals = min(max(ERROR_DIGITS - 1 - math.floor(math.log10(e)), 0), 15)
+    return Rounded(v, f"{v:.{decimals}f}")
+
+
 def _numeric(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
@@ -203,7 +238,8 @@ def data_table(
             if _numeric(value):
                 v = float(value)
                 data = repr(v) if math.isfinite(v) else "NaN"
-                cells.append(f'<td data-value="{data}">{number(v, digits)}</td>')
+                shown = esc(value.text) if isinstance(value, Rounded) else number(v, digits)
+                cells.append(f'<td data-value="{data}">{shown}</td>')
             else:
                 align = _TEXT if k < len(text) and text[k] else ""
                 cells.append(f"<td{align}>{'-' if value is None else esc(value)}</td>")

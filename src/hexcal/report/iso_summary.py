@@ -36,11 +36,14 @@ def iso_dict(
     tolerance: float | None = None,
     instrument: str = "",
     names: Sequence[str] = (),
+    after: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The ISO figures of geometries by role (``nominal``, ``calibrated``), JSON-ready: each
     ``CircularTest`` and ``PoseStatistics`` as its ``to_dict()``; ``labels`` name the roles of
-    the figures (or of ``names`` when there are none)."""
+    the figures (or of ``names`` when there are none); ``after_setup`` how the after column
+    took the instrument's setup (:func:`hexcal.calibration.iso_validation.after_setup`)."""
     return {
+        "after_setup": None if after is None else dict(after),
         "instrument": instrument,
         "labels": {name: ROLE_LABELS.get(name, name) for name in (circles or poses or names)},
         "iso230_4": None if circles is None else {k: v.to_dict() for k, v in circles.items()},
@@ -90,17 +93,52 @@ def circle_rows(tests: Mapping[str, Mapping[str, Any]]) -> list[tuple[str, list[
     return rows
 
 
+def after_text(after: Mapping[str, Any] | None) -> str:
+    """How the after column took the instrument's setup, in words (empty without a record).
+
+    >>> print(after_text({"setup": "as given", "calibrated_setup": False, "frames": "set-up"}))
+    after calibration: the setup as given (its quantities fixed; the calibration's frames are the set-up's)
+    """
+    if not after:
+        return ""
+    if after["setup"] == "as given":
+        why = (
+            "its quantities fixed, in the calibrated machine's frames"
+            if after.get("calibrated_setup")
+            else "its quantities fixed; the calibration's frames are the set-up's"
+        )
+        what = "the calibrated setup" if after.get("calibrated_setup") else "the setup"
+        return f"after calibration: {what} as given ({why})"
+    names = ", ".join(printable(str(n)) for n in after.get("quantities", []))
+    text = (
+        f"after calibration: {names} re-registered on this session for the calibrated machine by "
+        f"{after.get('folds')}-fold cross-validation (seed {after.get('seed')}), as validate does"
+    )
+    if after.get("frames") == "convention" and not after.get("calibrated_setup"):
+        text += " (the setup as set up is not in the frames the calibration's gauge convention chose)"
+    held = after.get("held") or []
+    if held:
+        names = ", ".join(printable(str(n)) for n in held)
+        text += f"; held as given, these data cannot determine them: {names}"
+    return text + "; what the re-registration absorbs (a pivot's centre offset, a frame) is not shown after"
+
+
+def _circle_line(test: Mapping[str, Any], label: str) -> str:
+    centre = ", ".join(_fixed(v, 3) for v in test["nominal_centre_mm"])
+    normal = ", ".join(_fixed(v, 4) for v in test["plane_axes"][2])
+    return (
+        f"    {label}commanded circle: radius {test['nominal_radius_mm']:.6g} mm about ({centre}) mm, "
+        f"plane normal ({normal})"
+    )
+
+
 def _circle_lines(tests: Mapping[str, Mapping[str, Any]], labels: Mapping[str, str]) -> list[str]:
     first = next(iter(tests.values()))
-    centre = ", ".join(_fixed(v, 3) for v in first["nominal_centre_mm"])
-    normal = ", ".join(_fixed(v, 4) for v in first["plane_axes"][2])
     counts = " + ".join(f"{r['points']} {RUN_NAMES[n]}" for n, r in first["runs"].items() if n != "both")
-    lines = [
-        "ISO 230-4 circular test",
-        f"    nominal circle: radius {first['nominal_radius_mm']:.6g} mm about ({centre}) mm, plane normal "
-        f"({normal}); {counts} points",
-        f"    {'':<46}" + "".join(f"{printable(labels.get(n, n)):>20}" for n in tests),
-    ]
+    lines = [f"ISO 230-4 circular test: {counts} points"]
+    many = len(tests) > 1
+    lines += [_circle_line(t, f"{printable(labels.get(n, n))}: " if many else "") for n, t in tests.items()]
+    lines.append(f"    {'':<46}" + "".join(f"{printable(labels.get(n, n)):>20}" for n in tests))
     for label, values in circle_rows(tests):
         lines.append(f"    {label:<46}" + "".join(f"{_um(v):>20}" for v in values))
     return lines
@@ -159,4 +197,7 @@ def iso_text(data: Mapping[str, Any]) -> str:
         lines += _pose_lines(data)
     elif data.get("iso9283_note"):
         lines.append(f"ISO 9283: {printable(data['iso9283_note'])}")
+    after = after_text(data.get("after_setup"))
+    if after and (data.get("iso230_4") or data.get("iso9283")):
+        lines.append(f"    {after}")
     return "\n".join(lines)

@@ -60,11 +60,7 @@ def observability_text(data: dict[str, Any], fit: str = "joints,l0") -> str:
     if data["unidentifiable"]:
         lines.append("  parameter changes these poses cannot see (each a direction δθ ∝ the sum):")
         lines += [f"    {c}" for c in data["unidentifiable"]]
-    lines.append(
-        f"Noise ({noise['distribution']}): legs {noise['leg']:g} mm, position {noise['position']:g} mm, "
-        f"orientation {noise['orientation']:g} rad; standard deviations "
-        + ", ".join(f"{s:.3g}" for s in noise["sigmas"])
-    )
+    lines.append(noise_line(noise))
     predicted = data["predicted_mean_abs_error_mm"]
     lines.append(
         f"Predicted mean absolute parameter error: {_fmt(predicted['estimator'])} "
@@ -91,6 +87,24 @@ def observability_text(data: dict[str, Any], fit: str = "joints,l0") -> str:
             f"max {_fmt(None if max_rot is None else max_rot * 1e3, 'mrad')}"
         )
     return "\n".join(lines)
+
+
+def noise_line(noise: dict[str, Any]) -> str:
+    """The noise a prediction assumes, as given and as standard deviations (``sigmas`` a list
+    or a mapping by group).
+
+    >>> line = noise_line({"leg": 0.01, "position": 0.025, "orientation": 0.001,
+    ...                    "distribution": "uniform", "sigmas": [0.00577, 0.0144, 0.000577]})
+    >>> line.split("; ")[1]
+    'standard deviations 0.00577, 0.0144, 0.000577'
+    """
+    sigmas = noise["sigmas"]
+    values = [sigmas[g] for g in ("leg", "position", "orientation")] if isinstance(sigmas, dict) else sigmas
+    return (
+        f"Noise ({noise['distribution']}): legs {noise['leg']:g} mm, position {noise['position']:g} mm, "
+        f"orientation {noise['orientation']:g} rad; standard deviations "
+        + ", ".join(f"{s:.3g}" for s in values)
+    )
 
 
 def stroke_lines(coverage: dict[str, Any] | None) -> list[str]:
@@ -122,9 +136,12 @@ SELECT_JSON_KEYS = (
 
 
 def select_json(data: dict[str, Any]) -> dict[str, Any]:
-    """The ``hexcal select --json`` file: the keys :data:`SELECT_JSON_KEYS` of ``data``, and
+    """The ``hexcal select --json`` file: the keys :data:`SELECT_JSON_KEYS` of ``data``, then
+    ``noise`` (assumed) and ``instrument`` where the selection records them, and
     ``stroke_coverage`` for a leg model with a curve of the stroke."""
-    extra = {"stroke_coverage": data["stroke_coverage"]} if data.get("stroke_coverage") else {}
+    extra = {key: data[key] for key in ("noise", "instrument") if data.get(key) is not None}
+    if data.get("stroke_coverage"):
+        extra["stroke_coverage"] = data["stroke_coverage"]
     return {key: data[key] for key in SELECT_JSON_KEYS} | extra
 
 
@@ -144,6 +161,10 @@ def select_text(data: dict[str, Any]) -> str:
         )
         lines.append(f"  candidate indices: {' '.join(str(int(k)) for k in data['indices'])}")
     lines.append(f"  ids: {' '.join(data['ids'])}")
+    if data.get("instrument"):
+        lines.append(f"Measured by the {data['instrument']}")
+    if data.get("noise"):
+        lines.append(noise_line(data["noise"]))
     method = data.get("method", "length")
     lines.append(
         f"Predicted mean absolute parameter error (mm): identify (method {method}) | Cramér-Rao bound"

@@ -67,16 +67,34 @@ def noise_table(noise: Mapping[str, Any] | None) -> dict[str, Any]:
     }
 
 
+def stroke_table(coverage: Mapping[str, Any] | None) -> dict[str, Any] | None:
+    """The share of each leg's stroke the poses' readings cover (a leg model with a curve of
+    the stroke), and the findings below it, as the text says them; None without one."""
+    if not coverage:
+        return None
+    rows = [(f"leg {k + 1}", 100.0 * c) for k, c in enumerate(coverage["covered"])]
+    findings = "; ".join(f"warning: {f}" for f in coverage.get("findings") or [])
+    note = "The stroke terms are determined where the readings cover the stroke." + (
+        f" {findings}." if findings else ""
+    )
+    return {"columns": ["leg", "stroke covered (%)"], "rows": rows, "sortable": False, "note": note}
+
+
 def observability_report(
     data: Mapping[str, Any], poses: Any, box: Any | None = None, inputs: Mapping[str, Any] | None = None
 ) -> dict[str, Any]:
-    """The page of ``hexcal observability --html``: indices, the noise assumed, predicted
-    accuracy, the predicted standard deviation of every parameter, singular values, the poses.
+    """The page of ``hexcal observability --html``: what measures, the gauge freedoms, indices,
+    the noise assumed, predicted accuracy, the stroke coverage, the predicted standard deviation
+    of every parameter, singular values, the poses.
 
     ``data`` is ``PoseAnalysis.to_dict()``; ``poses`` the analysed poses (n, 6).
     """
     keys = ("n_poses", "n_parameters", "rank", "condition_number", "O1", "O2", "O3", "O4", "O5")
     indices = [(INDEX_LABELS[k], data.get(k)) for k in keys if k in data]
+    if data.get("instrument"):
+        indices.insert(0, ("measured by", data["instrument"]))
+    if data.get("gauge_labels"):
+        indices.insert(3, ("gauge freedoms (fixed by the convention)", ", ".join(data["gauge_labels"])))
     predicted = data.get("predicted_mean_abs_error_mm", {})
     tests = data.get("test_poses") or {}
     accuracy = [("mean absolute parameter error (mm)", predicted.get("estimator"), predicted.get("bound"))]
@@ -101,6 +119,9 @@ def observability_report(
             "rows": params,
         },
     }
+    stroke = stroke_table(data.get("stroke_coverage"))
+    if stroke is not None:
+        tables["Stroke coverage"] = stroke
     if data.get("unidentifiable"):
         tables["Parameter changes these poses cannot see"] = {
             "columns": ["combination (a direction δθ ∝ the sum)"],
@@ -144,15 +165,16 @@ def selection_rows(data: Mapping[str, Any]) -> list[tuple[str, Any]]:
                 rows.append((label, value))
         rows.append(("exchanges made", data.get("swaps")))
     rows += [("poses", data.get("n")), ("candidates", data.get("candidates")), ("seed", data.get("seed"))]
+    rows.append(("measured by", data.get("instrument")))
     return [(k, str(v)) for k, v in rows if v is not None]  # words: one left-aligned column
 
 
 def selection_report(
     data: Mapping[str, Any], poses: Any, box: Any | None = None, inputs: Mapping[str, Any] | None = None
 ) -> dict[str, Any]:
-    """The page of ``hexcal select --html``: the selection in words, the predicted errors of
-    the strategies compared, the noise assumed (when the selection records it), the selected
-    poses (table and workspace figure).
+    """The page of ``hexcal select --html``: the selection in words (what measures), the
+    predicted errors of the strategies compared, the noise assumed, the stroke coverage (a leg
+    model with a curve of the stroke), the selected poses (table and workspace figure).
 
     ``data`` is ``PoseSelection.to_dict()``; ``poses`` the selected poses (n, 6), in the
     order of ``data["ids"]``.
@@ -179,6 +201,9 @@ def selection_report(
     }
     if data.get("noise"):
         tables["Noise assumed"] = noise_table(data["noise"])
+    stroke = stroke_table(data.get("stroke_coverage"))
+    if stroke is not None:
+        tables["Stroke coverage"] = stroke
     tables["Selected poses"] = {
         "columns": ["id", "x (mm)", "y (mm)", "z (mm)", "a (deg)", "b (deg)", "c (deg)"],
         "rows": rows,

@@ -66,13 +66,13 @@ def page(spec: str) -> Callable[..., str]:
 #: HTML pages (self-contained, figures inline): their dictionaries carry figures and inputs.
 HTML_PAGES = {
     "identification": "calibration_pages:identification_page",
-    "validation": "calibration_pages:validation_page",
+    "validation": "validation_pages:validation_page",
     "paper": "html:tables_page",
     "study": "html:tables_page",
     "observability": "html:tables_page",
     "select": "html:tables_page",
     "tables": "html:tables_page",
-    "iso": "iso_pages:iso_page",
+    "iso": "validation_pages:iso_page",
 }
 
 for _kind, _spec in HTML_PAGES.items():

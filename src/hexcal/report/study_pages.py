@@ -29,8 +29,8 @@ def study_note(study: Mapping[str, Any]) -> str:
 
 
 def conditions_table(summary: Mapping[str, Any]) -> dict[str, Any]:
-    """The conditions of a study as labelled rows: the machines, the noise (as given and as
-    standard deviations, one row per group), trials, seed."""
+    """The conditions of a study as labelled rows: the machines, the instrument, the noise (as
+    given and as standard deviations, one row per group), trials, seed."""
     noise = summary.get("noise")
     sigmas = (
         summary.get("noise_sigmas") or (noise.get("sigmas") if isinstance(noise, Mapping) else None) or {}
@@ -47,6 +47,7 @@ def conditions_table(summary: Mapping[str, Any]) -> dict[str, Any]:
     rows: list[tuple[str, Any]] = [
         ("nominal machine", summary.get("nominal") or (summary.get("nominal_geometry") or {}).get("name")),
         ("true machine", "random: nominal + U(±5 mm) per trial" if true == "random" else true),
+        ("measured by", summary.get("instrument")),
     ]
     if isinstance(noise, str):
         rows.append(("noise (as given)", noise))

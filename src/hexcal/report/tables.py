@@ -5,7 +5,7 @@ for tables without an id column). Imports numpy.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -36,31 +36,48 @@ def study_table(rows: Sequence[dict[str, Any]]) -> Table:
     return list(STUDY_COLUMNS), values, ids, "id: strategy/noise/method; mm and rad"
 
 
-def validation_table(calibrated: Any, nominal: Any | None, ids: Sequence[str]) -> Table:
-    """Per-observation validation table: leg residual RMS, position and orientation error of
-    the platform pose, and the instrument's own errors, for the calibrated geometry and
-    optionally the nominal one (:class:`hexcal.calibration.ValidationResult`); empty cells
-    where the instrument gives no value."""
-    results = [("", calibrated)] + ([("nominal_", nominal)] if nominal is not None else [])
+def validation_table(validation: Any, nominal: Any | None = None, ids: Sequence[str] | None = None) -> Table:
+    """Per-observation validation table (``hexcal validate --out``): leg residual RMS, position and
+    orientation error of the platform pose, and the instrument's own errors, for the calibrated
+    geometry and, when validated, the nominal one (``nominal_`` columns); empty cells where the
+    instrument gives no value.
+
+    ``validation`` is a validation's one dictionary (:func:`hexcal.report.validation_report_dict`),
+    or the calibrated machine's :class:`hexcal.calibration.ValidationResult` (then ``nominal``
+    the nominal one's, or None; ``ids`` are the result's own).
+    """
+    if isinstance(validation, Mapping):
+        per_pose = validation["per_pose"]
+    else:
+        from hexcal.report.convert import validation_per_pose
+
+        per_pose = validation_per_pose(validation, nominal)
+    ids = list(per_pose["ids"]) if ids is None else list(ids)
+    labels = per_pose.get("value_labels") or []
     columns, table = [], []
-    for prefix, res in results:
-        leg = np.asarray(res.to_dict()["leg_rms"], dtype=float)  # per observation, from the library
+    for prefix, res in (("", per_pose["calibrated"]), ("nominal_", per_pose.get("nominal"))):
+        if res is None:
+            continue
         columns += [f"{prefix}leg_rms", f"{prefix}position_error", f"{prefix}orientation_error"]
-        table += [leg, res.position_error, res.orientation_error]
-        for name, values in res.instrument_errors.items():
-            values = np.asarray(values, dtype=float).reshape(len(ids), -1)
+        table += [_floats(res[k]) for k in ("leg_rms", "position_error", "orientation_error")]
+        for name, values in res["instrument_errors"].items():
+            values = _floats(values).reshape(len(ids), -1)
             if values.shape[1] == 1:  # the instrument's own (a tool's position beside the platform's)
                 columns.append(f"{prefix}instrument_{name}_error")
                 table.append(values[:, 0])
             else:
-                labels = res.value_labels if len(res.value_labels) == values.shape[1] else None
+                own = labels if len(labels) == values.shape[1] else None
                 columns += [
-                    f"{prefix}{labels[k] if labels else f'{name}{k + 1}'}_error"
-                    for k in range(values.shape[1])
+                    f"{prefix}{own[k] if own else f'{name}{k + 1}'}_error" for k in range(values.shape[1])
                 ]
                 table += list(values.T)
     comment = "per-pose validation: mm and rad; leg_rms is the RMS of the six leg residuals; empty: no value"
-    return columns, np.column_stack(table), list(ids), comment
+    return columns, np.column_stack(table), ids, comment
+
+
+def _floats(values: Any) -> NDArray[np.float64]:
+    """Values of a dictionary (None where the JSON has null) as floats (NaN)."""
+    return np.array(values, dtype=float)
 
 
 def errormap_tables(maps: Any) -> dict[str, Table]:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from hexcal.report.units import display, is_angle, parameter_unit, validation_rows
+from hexcal.report.units import display, is_angle, parameter_unit, validation_rows, validation_summaries
 
 
 def _label(method: str) -> str:
@@ -268,19 +268,14 @@ def _number(value: Any) -> float:
 
 def leg_model_lines(data: dict[str, Any]) -> list[str]:
     """The leg model, and the cross-validation that chose it (``leg_model="auto"``)."""
+    from hexcal.calibration.leg_model_choice import choice_lines
+
     choice = data.get("leg_model_choice")
     if not choice and data.get("leg_model", "linear") == "linear":
         return []
     lines = ["[[Leg model]]", f"    {data.get('leg_model', '')}"]
     if choice:
-        lines[-1] += f", chosen by cross-validation ({choice['scheme']}; {choice['rule']})"
-        for name, s in choice["scores"].items():
-            mark = " <- chosen" if name == choice["choice"] else ""
-            lines.append(
-                f"    {name:<10} held-out leg RMS {s['leg_rms_mm']:.4g} mm, position RMS "
-                f"{_number(s['position_rms_mm']):.4g} mm, orientation RMS "
-                f"{_number(s['orientation_rms_rad']):.3g} rad ({s['parameters']:d} machine parameters){mark}"
-            )
+        lines += [f"    {line}" for line in choice_lines(choice)]
     return lines
 
 
@@ -367,15 +362,24 @@ def identification_text(data: dict[str, Any]) -> str:
 
 
 def validation_text(data: dict[str, Any]) -> str:
-    """Side-by-side table of validation summaries (:func:`hexcal.report.validation_dict`);
-    a row the instrument cannot give (a platform pose from one target) is left out.
+    """The report of a validation: the figures side by side (a row the instrument cannot give,
+    a platform pose from one target, is left out), the re-registration, what the calibration
+    expected, then the ISO figures (:func:`hexcal.report.iso_text`) of an ISO test.
+
+    ``data`` is a validation's one dictionary (:func:`hexcal.report.validation_report_dict`:
+    ``hexcal.validate(...).to_dict()``), or the summaries side by side of
+    :func:`hexcal.report.validation_dict`.
 
     >>> s = dict(poses=3, leg_rms=0.01, leg_max=0.02, position_rms=0.1, position_max=0.2,
     ...          orientation_rms=1e-5, orientation_max=2e-5)
     >>> print(validation_text({"calibrated": s, "nominal": None}).splitlines()[4])
         position error RMS (mm)                  0.1
     """
-    calibrated, nominal = data["calibrated"], data.get("nominal")
+    if isinstance(data.get("calibrated"), dict):  # the summaries side by side
+        calibrated, nominal = data["calibrated"], data.get("nominal")
+    else:
+        columns = validation_summaries(data)
+        calibrated, nominal = columns["calibrated"], columns["nominal"]
     cols = [("calibrated", calibrated)] + ([("nominal", nominal)] if nominal else [])
     what = data.get("instrument") or _FULL_POSE
     lines = [
@@ -385,30 +389,37 @@ def validation_text(data: dict[str, Any]) -> str:
     ]
     lines.append(f"    {'':<30}" + "".join(f"{name:>14}" for name, _ in cols))
     for label, key, scale in validation_rows(list(calibrated)):
-        values = [d.get(key, float("nan")) for _, d in cols]
+        values = [_number(d.get(key)) for _, d in cols]
         if all(not math.isfinite(v) for v in values):
             continue
         lines.append(f"    {label:<30}" + "".join(f"{v * scale:>14.4g}" for v in values))
-    lines += _registration_lines(data.get("registration"))
-    lines += _expected_lines(data.get("expected"))
+    lines += registration_lines(data.get("registration"))
+    lines += expected_lines(data.get("expected"))
+    iso = data.get("iso")
+    if iso:
+        from hexcal.report.iso_summary import iso_text
+
+        lines.append(iso_text(iso))
     return "\n".join(lines)
 
 
-def _registration_lines(record: dict[str, Any] | None) -> list[str]:
+def registration_lines(record: dict[str, Any] | None) -> list[str]:
     """How validation re-registered the instrument (:func:`hexcal.calibration.validate`)."""
     if not record:
         return []
     quantities = record.get("quantities") or []
     kinds = sorted({q.split(".")[0] for q in quantities})
+    held = record.get("held") or []
+    kept = f"; held as given, not determined by this session: {', '.join(held)}" if held else ""
     return [
-        f"Re-registered on this session ({len(quantities)} quantities: {', '.join(kinds)}) by "
+        f"Re-registered on this session ({len(quantities)} quantities: {', '.join(kinds)}{kept}) by "
         f"{record['folds']}-fold cross-validation (seed {record['seed']}): each pose judged by frames "
         f"fitted to the other folds; the registration on all poses leaves legs at "
-        f"{record['leg_rms_mm']:.3g} mm RMS ({record['noise']})"
+        f"{_number(record['leg_rms_mm']):.3g} mm RMS ({record['noise']})"
     ]
 
 
-def _expected_lines(expected: dict[str, Any] | None) -> list[str]:
+def expected_lines(expected: dict[str, Any] | None) -> list[str]:
     """What the calibration's own uncertainty says validation should measure, and the ratio;
     the same with this session's noise when both are known."""
     if not expected:
@@ -421,14 +432,17 @@ def _expected_lines(expected: dict[str, Any] | None) -> list[str]:
         "given": "Expected from the calibration (its uncertainty, the noise given)",
     }
     for entry in (expected, expected.get("with_session_noise")):
-        if not entry or not math.isfinite(entry["position_rms_mm"]):  # no pose (a ballbar)
+        if not entry or not math.isfinite(_number(entry["position_rms_mm"])):  # no pose (a ballbar)
             continue
+        position, orientation, leg = (
+            _number(entry[k]) for k in ("position_rms_mm", "orientation_rms_rad", "leg_rms_mm")
+        )
         figures = (
-            f"position RMS {entry['position_rms_mm']:.3g} mm, orientation RMS "
-            f"{entry['orientation_rms_rad'] * 1e3:.3g} mrad, leg RMS {entry['leg_rms_mm']:.3g} mm"
+            f"position RMS {position:.3g} mm, orientation RMS {orientation * 1e3:.3g} mrad, "
+            f"leg RMS {leg:.3g} mm"
         )
         ratio = entry.get("measured_over_expected") or {}
-        ratios = ", ".join(f"{shown[k]} {v:.2f}" for k, v in ratio.items() if math.isfinite(v))
+        ratios = ", ".join(f"{shown[k]} {v:.2f}" for k, v in ratio.items() if math.isfinite(_number(v)))
         lines.append(f"{what.get(entry['noise'], 'Expected')}: {figures}")
         if ratios:
             lines.append(f"    measured / expected: {ratios}")

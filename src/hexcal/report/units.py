@@ -129,6 +129,28 @@ def validation_rows(summary: Sequence[str]) -> list[tuple[str, str, float]]:
     return rows
 
 
+def validation_summaries(data: dict[str, Any]) -> dict[str, dict[str, Any] | None]:
+    """The summaries (``ValidationResult.summary()`` keys: no units in them) of the calibrated
+    and the nominal machine in a validation's dictionary
+    (:func:`hexcal.report.validation_report_dict`, :func:`hexcal.report.validation_json`): its
+    figures are the keys ending in their unit.
+
+    >>> validation_summaries({"poses": 3, "leg_rms_mm": 0.01, "orientation_max_rad": 2e-5,
+    ...                       "instrument": "pose", "nominal": None})
+    {'calibrated': {'poses': 3, 'leg_rms': 0.01, 'orientation_max': 2e-05}, 'nominal': None}
+    """
+
+    def plain(figures: dict[str, Any]) -> dict[str, Any]:
+        return {
+            key.removesuffix("_mm").removesuffix("_rad"): value
+            for key, value in figures.items()
+            if key == "poses" or key.endswith(("_mm", "_rad"))
+        }
+
+    nominal = data.get("nominal")
+    return {"calibrated": plain(data), "nominal": None if nominal is None else plain(nominal)}
+
+
 def fmt(value: Any, digits: int = 4, missing: str = "n/a") -> str:
     """A number for a person: ``missing`` (never ``nan``) for None and non-finite values.
 

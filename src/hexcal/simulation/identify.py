@@ -6,12 +6,10 @@ unreachable pose) gives a NaN row, counted as a failure, never an error. The Cra
 bound of the mean absolute parameter error is computed at the poses really reached.
 
 :func:`identify_trials` identifies all trials of a chunk together with
-:func:`hexcal.estimation.estimate_batch` for the estimators it implements (``paper``,
-``length``, ``ml``), and one trial at a time with :func:`hexcal.estimation.estimate` for
-the others. The batched solver reaches the optimum to rounding; the one-at-a-time solver
-(``scipy.optimize.least_squares``, which stops when the cost no longer tells steps apart)
-stops up to about 1e-5 mm short of it in weakly determined directions, so the two paths
-agree to about 1e-5 mm per parameter, far below the Monte Carlo scatter of any table.
+:func:`hexcal.estimation.estimate_batch` for the estimators it implements (every built-in
+one: ``paper``, ``length``, ``gls``, ``ml``), and one trial at a time with
+:func:`hexcal.calibration.estimate` for any other. Both use the same solvers (one
+identification is a batch of one), so the two paths agree to rounding.
 """
 
 from __future__ import annotations

@@ -16,8 +16,10 @@ targets or tool) with :func:`hexcal.calibration.estimate`, and measures:
 
 A failed identification or an unreachable pose gives NaN for the trial. Each trial's data come
 from its own generator and its frame is registered on its own; the trials of a cell are then
-identified together (the batched maximum likelihood of :mod:`hexcal.estimation.batched_ml`),
-so the numbers do not depend on the executor, and on the chunks only in the last digits.
+identified together by the solvers of the built-in estimators (a stack of the trials,
+:func:`hexcal.estimation.batched.estimate_stack`), or one at a time by a registered estimator
+without one, so the numbers do not depend on the executor, and on the chunks only in the last
+digits.
 """
 
 from __future__ import annotations
@@ -136,7 +138,6 @@ def instrument_cell(
     session simulated from its own generator, the frames registered per trial, the trials of
     the cell identified together (:func:`hexcal.estimation.estimate_stack`), then judged."""
     from hexcal.calibration import register_sessions
-    from hexcal.estimation import Stack, estimate_stack
 
     t, v = len(true_machines), targets.shape[1]
     errors, bounds = np.full(t, np.nan), np.full(t, np.nan)
@@ -152,17 +153,9 @@ def instrument_cell(
             continue
         sessions.append(registered[0])
         trials.append(k)
-    if sessions:
-        try:
-            stack = Stack.of_sessions(nominal, sessions, fit=campaign.fit)
-            batch = estimate_stack(stack, method, noise)
-        except (HexcalError, ValueError):
-            batch = None
-        for j, k in enumerate(trials):
-            if batch is None or not batch.converged[j]:
-                continue
-            values = np.array(stack.full0[j])
-            values[stack.mask] = batch.values[j]
+    for j, values in enumerate(_identified(nominal, sessions, campaign, method, noise)):
+        if values is not None:
+            k = trials[j]
             errors[k], bounds[k], pos[k], ang[k] = _evaluate(
                 nominal, true_machines[k], campaign, sessions[j], values, noise, targets[k]
             )
@@ -172,6 +165,41 @@ def instrument_cell(
         "position_rms": np.sqrt(np.mean(pos**2, axis=1)),
         "orientation_rms": np.sqrt(np.mean(ang**2, axis=1)),
     }
+
+
+def _identified(
+    nominal: Geometry, sessions: list[Session], campaign: InstrumentCampaign, method: str, noise: NoiseModel
+) -> list[NDArray[np.float64] | None]:
+    """Every trial's identified parameters (all the problem's; None where it failed): the trials
+    together by the batched solvers of the built-in estimators, one at a time by any other."""
+    from hexcal.estimation import BATCH_METHODS, Problem, Stack, estimate_stack, get_estimator
+
+    if not sessions:
+        return []
+    if method in BATCH_METHODS:
+        try:
+            stack = Stack.of_sessions(nominal, sessions, fit=campaign.fit)
+            batch = estimate_stack(stack, method, noise)
+        except (HexcalError, ValueError):
+            return [None] * len(sessions)
+        out: list[NDArray[np.float64] | None] = []
+        for j in range(len(sessions)):
+            values = np.array(stack.full0[j])
+            values[stack.mask] = batch.values[j]
+            out.append(values if batch.converged[j] else None)
+        return out
+    estimator, out = get_estimator(method), []
+    for session in sessions:  # an estimator without a batched solver: one trial at a time
+        try:
+            problem = Problem(nominal, session, fit=campaign.fit)
+            result = estimator.fit(problem, noise)
+        except (HexcalError, ValueError, np.linalg.LinAlgError):
+            out.append(None)
+            continue
+        values = np.array(problem.full0)
+        values[problem.mask] = result.values
+        out.append(values)
+    return out
 
 
 def instrument_campaign(

@@ -42,6 +42,7 @@ from hexcal.core.parameters import JOINT_NAMES, PARAMETER_NAMES
 from hexcal.errors import SimulationError
 from hexcal.instruments import Measurements
 from hexcal.instruments.base import MeasurementModel, Session
+from hexcal.instruments.covariates import Covariates
 
 
 @dataclass(frozen=True)
@@ -318,6 +319,7 @@ def simulate_session(
     noise: NoiseModel | None = None,
     rng: np.random.Generator | int | None = None,
     ids: tuple[str, ...] | None = None,
+    covariates: Covariates | None = None,
     **options: Any,
 ) -> Session:
     """A simulated session of any instrument (the paper's protocol, steps 2 to 4).
@@ -327,6 +329,8 @@ def simulate_session(
     the instrument (its true setup: the frame known) records what it sees there plus its
     noise (:meth:`MeasurementModel.simulate`; ``options`` such as a target ``missing_rate``).
     Leg errors are drawn first, then the instrument's. ``noise=None`` means the seed paper's.
+    ``covariates`` (of the commanded poses: time, leg temperatures, payload) are carried into
+    the data, row by row (not yet simulated: the machine does not warm or give).
 
     Examples
     --------
@@ -360,6 +364,9 @@ def simulate_session(
         tuple(ids or ()),
         **options,
     )
+    if covariates:  # the rows recorded (a pose with every target lost is not), by their ids
+        row = {label: k for k, label in enumerate(ids or (str(k + 1) for k in range(len(poses))))}
+        data = data.replace(covariates=covariates.subset([row[i] for i in instrument.ids(data)]))
     return Session(data, instrument)
 
 

@@ -13,14 +13,20 @@ order, so they do not depend on how trials are grouped or where they run.
 
 from __future__ import annotations
 
+import ctypes
 import os
 import signal
+import sys
+import threading
+import time
 from collections.abc import Callable, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
+
+from hexcal.core.progress import task
 
 #: Progress callback ``(done, total)``.
 Progress = Callable[[int, int], None]
@@ -35,6 +41,10 @@ MAX_CHUNK = 100
 #: load balance on a few cores and for progress lines; large runs get more chunks of
 #: :data:`MAX_CHUNK` trials, to spread over a cluster.
 CHUNKS = 16
+#: ``prctl`` option of Linux: the signal a process gets when the thread that forked it ends.
+PR_SET_PDEATHSIG = 1
+#: Seconds between two looks at the parent by a worker's watchdog (where ``prctl`` is missing).
+WATCHDOG_PERIOD = 0.5
 
 
 class Executor(Protocol):
@@ -61,14 +71,43 @@ class SerialExecutor:
         return future
 
 
-def worker_signals() -> None:
+def worker_signals(parent: int | None = None) -> None:
     """In a pool worker: SIGINT and SIGHUP ignored (the parent stops the pool: a closed
     terminal sends SIGHUP to every process of its group, and only the parent decides, so that
     it never sees a broken pool instead of the signal), SIGTERM kills at once (the parent
-    terminates its workers with it)."""
+    terminates its workers with it); with ``parent`` (its pid), the worker also ends when that
+    process is gone (:func:`end_with_parent`)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGHUP, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if parent is not None:
+        end_with_parent(parent)
+
+
+def end_with_parent(parent: int) -> None:
+    """End this process when its parent ``parent`` is gone, however it died.
+
+    A parent killed by a signal it cannot handle (SIGKILL, an out-of-memory kill, ``timeout
+    -s KILL``) or by one it does not handle (SIGQUIT, SIGUSR1) cannot stop its pool; its
+    workers would be re-parented and compute on. On Linux the kernel sends this process
+    SIGKILL when the parent ends (``prctl(PR_SET_PDEATHSIG)``); elsewhere a daemon thread looks
+    at the parent's pid every :data:`WATCHDOG_PERIOD` seconds. A parent already gone when this
+    is called ends the process at once.
+    """
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0:
+            if os.getppid() != parent:  # it died before the request: nobody will signal
+                os._exit(1)
+            return
+    thread = threading.Thread(target=_watch_parent, args=(parent,), name="hexcal-parent-watch", daemon=True)
+    thread.start()
+
+
+def _watch_parent(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(WATCHDOG_PERIOD)
+    os._exit(1)
 
 
 def resolve_jobs(jobs: int | None) -> int:
@@ -138,7 +177,8 @@ def map_trials(
         ``executor``; the trials of a chunk are identified together, so the last digits of
         the batched maximum likelihood, about 1e-11 mm, depend on it).
     progress : callable(done, total), optional
-        Called as chunks complete, in units of ``weight`` per trial.
+        Called as chunks complete, in units of ``weight`` per trial (default: the lines of
+        :mod:`hexcal.core.progress`, when a caller turned them on).
     weight : int
         Work units per trial for ``progress`` (e.g. identifications per trial).
 
@@ -154,13 +194,25 @@ def map_trials(
     >>> map_trials(squares, 1, 5, chunk_size=2)["value"].tolist()
     [1, 2, 5, 10, 17]
     """
+    if progress is None:  # the library's progress lines (hexcal.core.progress), when turned on
+        with task("trials", trials * weight) as step:
+            seen = [0]
+
+            def tick(done: int, total: int) -> None:
+                step(done - seen[0])
+                seen[0] = done
+
+            return map_trials(fn, definition, trials, jobs=jobs, executor=executor, chunk_size=chunk_size,
+                              progress=tick, weight=weight)  # fmt: skip
     n_jobs = resolve_jobs(jobs)
     chunks = chunk_indices(trials, chunk_size=chunk_size)  # the same wherever they run
     if executor is not None:
         return _collect(executor, fn, definition, chunks, trials, progress, weight)
     if n_jobs == 1 or len(chunks) == 1:
         return _collect(SerialExecutor(), fn, definition, chunks, trials, progress, weight)
-    pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(chunks)), initializer=worker_signals)
+    pool = ProcessPoolExecutor(
+        max_workers=min(n_jobs, len(chunks)), initializer=worker_signals, initargs=(os.getpid(),)
+    )
     try:
         out = _collect(pool, fn, definition, chunks, trials, progress, weight)
     except BaseException as exc:  # errors and KeyboardInterrupt: drop the queued chunks at once

@@ -208,10 +208,35 @@ def study_trials(d: StudyDefinition, indices: NDArray[np.intp]) -> dict[str, NDA
     return out
 
 
+#: Bytes per pose of one trial while a chunk of trials is identified together (the stacked
+#: Jacobians, poses, residuals and the solvers' copies): measured about 12,000 (``simulate
+#: --strategies interior --methods paper,ml --trials 2``: 35 MB more for 3,000 more poses).
+POSE_TRIAL_BYTES = 16_000
+
+#: Estimators a study compares when none are named: the seed paper's and maximum likelihood,
+#: those of them the instrument allows (:func:`default_methods`).
+DEFAULT_METHODS = ("paper", "ml")
+
+
+def default_methods(campaign: InstrumentCampaign | None = None) -> tuple[str, ...]:
+    """The estimators of :data:`DEFAULT_METHODS` that the campaign's instrument allows: a pose
+    estimator needs the platform pose measured (the full pose, a tool with its orientation),
+    which targets or a ballbar do not give.
+
+    >>> default_methods()
+    ('paper', 'ml')
+    """
+    from hexcal.estimation import get_estimator
+
+    if campaign is None or campaign.start.determines_pose:
+        return DEFAULT_METHODS
+    return tuple(m for m in DEFAULT_METHODS if not get_estimator(m).needs_pose)
+
+
 def run_study(
     nominal: Geometry,
     true: Geometry | None = None,
-    methods: Sequence[str] = ("paper", "ml"),
+    methods: Sequence[str] | None = None,
     strategies: dict[str, PoseStrategy] | None = None,
     pose_counts: Sequence[int] = (15,),
     noises: dict[str, NoiseModel] | None = None,
@@ -235,8 +260,9 @@ def run_study(
         The controller's geometry, with a workspace box.
     true : Geometry, optional
         The real machine; default nominal plus uniform ±``parameter_error`` mm per trial.
-    methods : sequence of str
-        Estimators (:data:`hexcal.estimation.ESTIMATORS`).
+    methods : sequence of str, optional
+        Estimators (:data:`hexcal.estimation.ESTIMATORS`); default :func:`default_methods`
+        of the instrument.
     strategies : dict of name to strategy, optional
         Default ``corners`` and ``interior`` (:data:`STRATEGIES`). For ``jobs > 1`` they
         must be picklable (module-level functions or :func:`fixed_strategy`).
@@ -284,6 +310,14 @@ def run_study(
     """
     strategies = dict(STRATEGIES) if strategies is None else strategies
     noises = {"paper": NoiseModel()} if noises is None else noises
+    methods = default_methods(campaign) if methods is None else methods
+    from hexcal.core.resources import check_memory
+    from hexcal.simulation.runner import default_chunk_size
+
+    largest = max((int(n) for n in pose_counts), default=0)
+    per_chunk = default_chunk_size(trials) if chunk_size is None else max(1, int(chunk_size))
+    what = f"{largest:,} poses in each of {per_chunk} trial(s) at once"
+    check_memory("--poses", POSE_TRIAL_BYTES * largest * per_chunk, what)
     if campaign is not None:
         from hexcal.errors import UsageError
         from hexcal.estimation import get_estimator
@@ -292,7 +326,7 @@ def run_study(
             if get_estimator(method).needs_pose and not campaign.start.determines_pose:
                 raise UsageError(
                     f"method {method}: it needs the platform pose measured, and the "
-                    f"{campaign.start.describe()} does not give it; use ml"
+                    f"{campaign.true.describe()} does not give it; use ml"
                 )
     definition = StudyDefinition(
         nominal,

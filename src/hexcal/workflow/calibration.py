@@ -27,6 +27,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -36,6 +37,7 @@ from hexcal.calibration.identify import AUTO, estimate
 from hexcal.calibration.leg_model_choice import choose_leg_model, fit_for, parse_leg_model, start_for
 from hexcal.calibration.splitting import split_sessions, step_splits
 from hexcal.core.geometry import Geometry
+from hexcal.core.progress import task
 from hexcal.errors import CalibrationFailed, UsageError
 from hexcal.estimation.outliers import DEFAULT_ALPHA
 from hexcal.estimation.registry import DEFAULT_ESTIMATOR
@@ -169,7 +171,11 @@ class Calibration:
     # -- reports and files ------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """The one schema every report renders (text, JSON, HTML): ``hexcal identify --json``
-        writes exactly this."""
+        writes exactly this. Built once (the reports share it: do not change it in place)."""
+        return self._dict
+
+    @cached_property
+    def _dict(self) -> dict[str, Any]:
         from hexcal.report import calibration_dict
 
         return calibration_dict(self)
@@ -281,19 +287,22 @@ def calibrate(
     done: tuple[str, ...] = ()
     if explicit:
         given, done = split_sessions(given, explicit)
-    start, fit, choice, spec = _leg_model(nominal, given, leg_model, method, fit, fix, noise)
-    common = dict(
-        noise=noise, fit=fit, fix=fix, robust=robust, sigma_limit=sigma_limit, max_change=max_change
-    )
-    result = estimate(start, given, method, alpha=alpha, **common, **options)
-    first = None
-    if split == AUTO:
-        steps = step_splits(result.verdict)
-        if steps:
-            first = Calibration(result, nominal, tuple(given), spec, choice, done, None, inputs)
-            given, more = split_sessions(given, steps)
-            done += more
-            result = estimate(start, given, method, alpha=alpha, **common, **options)
+    with task("calibration") as step:
+        start, fit, choice, spec = _leg_model(nominal, given, leg_model, method, fit, fix, noise)
+        common = dict(
+            noise=noise, fit=fit, fix=fix, robust=robust, sigma_limit=sigma_limit, max_change=max_change
+        )
+        result = estimate(start, given, method, alpha=alpha, **common, **options)
+        step()
+        first = None
+        if split == AUTO:
+            steps = step_splits(result.verdict)
+            if steps:  # the sessions as given are kept: their verdict found the steps
+                first = Calibration(result, nominal, tuple(given), spec, choice, done, None, inputs)
+                given, more = split_sessions(given, steps)
+                done += more
+                result = estimate(start, given, method, alpha=alpha, **common, **options)
+                step()
     return Calibration(result, nominal, tuple(given), spec, choice, done, first, inputs)
 
 

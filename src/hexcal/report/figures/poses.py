@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from matplotlib.cm import ScalarMappable
 from matplotlib.colors import ListedColormap, Normalize
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import FuncFormatter, MaxNLocator
 
 from hexcal.report.figures.render import (
     RASTER_POINTS,
@@ -39,6 +39,25 @@ RING_LIMIT = 200
 MAX_RINGS = 8
 
 
+#: Most pose ids written under an axis (more poses: ids at evenly spread ticks).
+MAX_ID_TICKS = 24
+
+
+def id_axis(ax: Any, ids: Sequence[str]) -> None:
+    """Label the x positions ``0 .. n-1`` of ``ax`` by the poses' ids (every one for a few
+    poses, else at evenly spread integer ticks), as the tables and reports name the poses."""
+    names = [str(i) for i in ids]
+    ax.xaxis.set_major_locator(MaxNLocator(nbins=MAX_ID_TICKS, integer=True, min_n_ticks=1))
+
+    def name(x: float, _: Any) -> str:
+        k = round(x)
+        return names[k] if abs(x - k) < 1e-6 and 0 <= k < len(names) else ""
+
+    ax.xaxis.set_major_formatter(FuncFormatter(name))
+    if max((len(n) for n in names), default=0) > 4:
+        ax.tick_params(axis="x", labelrotation=45)
+
+
 def pose_residuals(
     ids: Sequence[str],
     before: Any,
@@ -60,10 +79,10 @@ def pose_residuals(
             ax.semilogy(
                 k[sel], np.maximum(after[sel], 1e-12), style, ms=9, mfc="none", color="C3", label=plain(label)
             )
-    ax.set_xlabel("measured pose (file order)")
+    ax.set_xlabel("measured pose (id)")
     ax.set_ylabel("RMS leg residual (mm)")
     log_ticks(ax)
-    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    id_axis(ax, ids)
     ax.grid(True, which="both", alpha=0.3)
     legend_outside(ax)
     ax.set_title(f"Leg residuals per pose ({len(ids)} poses)")
@@ -177,10 +196,12 @@ def pose_errors(
     title: str = "",
     numbers: Sequence[int] | None = None,
     text: str = "",
+    ids: Sequence[str] | None = None,
 ) -> Any:
     """Position (mm) and orientation (mrad) error of every pose, one marker and line style
     per series (``{label: {"position": mm, "orientation": rad}}``), log scale; ``numbers``
-    labels the x positions (default 0, 1, ...), ``text`` is the conditions line below."""
+    labels the x positions (default 0, 1, ...), or ``ids`` names the poses under the axis;
+    ``text`` is the conditions line below."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.9), constrained_layout=True)
     styles = (("s", "-", "C0"), ("o", "--", "C1"), ("^", ":", "C2"))
     first = next(iter(series.values()))
@@ -204,7 +225,9 @@ def pose_errors(
         ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
         log_ticks(ax)
-        if n <= 20 and numbers is not None:
+        if ids is not None:
+            id_axis(ax, ids)
+        elif n <= 20 and numbers is not None:
             ax.set_xticks(k)
         else:
             ax.xaxis.set_major_locator(MaxNLocator(integer=True))
@@ -222,7 +245,8 @@ def validation_errors(ids: Sequence[str], errors: Mapping[str, Mapping[str, Any]
         name: {"position": e["position_error"], "orientation": e["orientation_error"]}
         for name, e in errors.items()
     }
-    return pose_errors(series, title=f"Pose errors of {len(ids)} held-out poses")
+    title = f"Pose errors of {len(ids)} held-out poses"
+    return pose_errors(series, "held-out pose (id)", title=title, ids=ids)
 
 
 def validation_errors_figure(data: Mapping[str, Any]) -> Any:
