@@ -24,7 +24,9 @@ q))``, so that a noise learned too large does not hide it. A step's ``p`` is its
 split points times their number (Bonferroni: the max of correlated statistics, conservative) and
 times the number of families; a split leaves at least :data:`MIN_SEGMENT` observations on each
 side (a single bad pose is an outlier, found by the outlier screen). A finding is reported
-below :data:`ALPHA`: the candidate (step or drift, of any family) of the smallest ``p``. Its
+below :data:`ALPHA`: the candidate (step or drift, of any family, at any split point) of the
+smallest ``p``, and where ``p`` is beyond floating point (a gross step, at several split points
+around it) the one that explains the most. Its
 size (the family's change, in mm and degrees) is the linearised estimate ``-M⁺ s``. It is a
 ``fail`` when it explains so much of the residuals that the learned noise is
 :data:`~hexcal.calibration.limits.FAIL_INFLATION` times what it would be without it, a
@@ -298,7 +300,9 @@ def sequence_findings(
                 f_k = np.where(rank > 0, (lm / np.maximum(rank, 1)) / ((rss - lm) / (dof - rank)), 0.0)
                 # log p (a gross step's p underflows), Bonferroni over the split points
                 logp = f_dist.logsf(f_k, np.maximum(rank, 1), np.maximum(dof - rank, 1)) + np.log(split.size)
-                j = int(np.argmin(logp))
+                # the smallest p; where it is beyond floating point (-inf, several split points
+                # around a gross step) the largest share explained, not the first such point
+                j = int(np.lexsort((-lm, logp))[0])
                 candidates.append(
                     found
                     | {
@@ -338,7 +342,7 @@ def sequence_findings(
         tests = np.log(2 * len(families))
         if not candidates or min(c["logp"] for c in candidates) + tests >= np.log(alpha):
             continue
-        chosen = min(candidates, key=lambda c: c["logp"])
+        chosen = min(candidates, key=lambda c: (c["logp"], -c["lm"] / max(c["rss"], 1e-300)))
         # the change of the family that takes the residuals away (e + Z δ ≈ 0); a drift's from
         # the first observation to the last (τ spans 1)
         delta = -_solve(chosen["s"], chosen["m"])
